@@ -1,0 +1,34 @@
+#!/usr/bin/env python
+"""Fetch the real meshes of the data registry into the neuraluv cache.
+
+    python data_scripts/fetch.py                      # download every mesh (pooch)
+    python data_scripts/fetch.py camel_b hand         # only these
+    python data_scripts/fetch.py --from ../shared/data/meshes   # offline import, sha256-checked
+
+The cache is ``$NEURALUV_DATA`` (default: the user cache folder). Nothing is
+written into the repository. The compact charts (camel, hand, bob) are derived
+from the fetched files at load time (``neuraluv.datasets.load``), exactly as
+the data's SOURCES.md describes.
+"""
+import argparse
+import sys
+
+from neuraluv import datasets
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("names", nargs="*", help="registry names (default: all)")
+    p.add_argument("--from", dest="source", help="local mirror folder to import from")
+    p.add_argument("--no-download", action="store_true", help="never touch the network")
+    a = p.parse_args(argv)
+    res = datasets.fetch_all(a.source, a.names or None, download=not a.no_download)
+    bad = [n for n, v in res.items() if isinstance(v, str)]
+    for n, v in res.items():
+        print(f"{n:18s} {'ok   ' + str(v) if not isinstance(v, str) else 'FAIL ' + v}")
+    print(f"{len(res) - len(bad)}/{len(res)} meshes in {datasets.data_dir()}")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

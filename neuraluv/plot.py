@@ -1,0 +1,233 @@
+"""Figures: UV layouts (flips in red), surface heatmaps, checkerboard transfers.
+
+Everything renders without a display: matplotlib with the Agg backend when no
+display is present, pyvista off screen. 3D surface images come from pyvista;
+they are returned as RGB arrays so they can be placed in matplotlib figures.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+__all__ = [
+    "checkerboard_texture", "plot_uv_layout", "render_surface", "render_checkerboard",
+    "plot_checkerboard_transfer", "plot_face_heatmap", "plot_trace",
+    "save_uv_layout", "save_checkerboard_transfer",
+]
+
+
+def _mpl():
+    import matplotlib
+
+    if not os.environ.get("DISPLAY") and "ipykernel" not in __import__("sys").modules:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def checkerboard_texture(n_checks=16, res=512):
+    """A procedural checkerboard image ``(res, res, 3) uint8`` (the paper's diagnostic texture)."""
+    i = (np.arange(res) * n_checks // res) % 2
+    board = (i[:, None] ^ i[None, :]).astype(bool)
+    img = np.where(board[..., None], np.array([235, 235, 235]), np.array([40, 90, 160]))
+    return img.astype(np.uint8)
+
+
+def _flipped(V, F, UV):
+    from .jacobian import jacobians, local_frames
+    from .metrics import face_metrics
+
+    if V is None:
+        a = UV[F[:, 1]] - UV[F[:, 0]]
+        b = UV[F[:, 2]] - UV[F[:, 0]]
+        return (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) <= 0
+    dCi, _ = local_frames(V, F)
+    return ~(face_metrics(jacobians(UV, F, dCi))["det"] > 0)
+
+
+def plot_uv_layout(V, F, UV, ax=None, *, title=None, FUV=None, face_colors=None, show_box=True):
+    """Draw a UV layout; flipped triangles (det J ≤ 0) are filled red.
+
+    Parameters
+    ----------
+    V : (n,3) float array or None
+        3D positions (used to decide flips by det J; without them the UV
+        winding decides).
+    F : (m,3) int array
+    UV : (p,2) float array
+    ax : matplotlib Axes, optional
+    FUV : (m,3) int array, optional
+        Per-corner UV indices (default ``F``).
+    face_colors : (m,) or (m,3|4) array, optional
+        Colours instead of the default light grey.
+
+    Returns
+    -------
+    ax : matplotlib Axes
+    """
+    plt = _mpl()
+    from matplotlib.collections import PolyCollection
+
+    F = np.asarray(F)
+    UV = np.asarray(UV, float)
+    FUV = F if FUV is None else np.asarray(FUV)
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5, 5))
+    if V is not None:
+        # per-corner UVs: evaluate det J on an exploded copy of the mesh
+        Fx = np.arange(3 * len(F)).reshape(-1, 3)
+        flipped = _flipped(np.asarray(V, float)[F.reshape(-1)], Fx, UV[FUV.reshape(-1)])
+    else:
+        flipped = _flipped(None, FUV, UV)
+    tris = UV[FUV]
+    fc = np.tile([0.85, 0.87, 0.9, 1.0], (len(F), 1)) if face_colors is None else face_colors
+    pc = PolyCollection(tris, facecolors=fc, edgecolors=(0.2, 0.2, 0.25, 0.5), linewidths=0.15)
+    ax.add_collection(pc)
+    if flipped.any():
+        ax.add_collection(PolyCollection(tris[flipped], facecolors="red", edgecolors="darkred", linewidths=0.4))
+    if show_box:
+        ax.plot([0, 1, 1, 0, 0], [0, 0, 1, 1, 0], lw=0.5, color="0.6")
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.set_xticks([])
+    ax.set_yticks([])
+    n = int(flipped.sum())
+    ax.set_title(title or f"UV layout: {n} flipped / {len(F)} faces", fontsize=9, color="red" if n else "black")
+    return ax
+
+
+def _polydata(V, F):
+    import pyvista as pv
+
+    faces = np.hstack([np.full((len(F), 1), 3), np.asarray(F)]).ravel()
+    return pv.PolyData(np.asarray(V, float), faces)
+
+
+def render_surface(V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FUV=None, texture=None,
+                   window_size=(600, 600), view=None, scalar_bar=None):
+    """Render a surface off screen with pyvista; returns an RGB image array.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    scalars : (m,) float array, optional
+        Per-face values for a heatmap.
+    uv : (p,2) float array, optional
+        Texture coordinates; with ``texture`` renders a textured surface.
+    FUV : (m,3) int array, optional
+        Per-corner UV indices (default ``F``).
+    texture : (h,w,3) uint8 array, optional
+    view : tuple, optional
+        Camera position as pyvista accepts it (default: isometric).
+
+    Returns
+    -------
+    img : (h,w,3) uint8 array
+    """
+    import pyvista as pv
+
+    pv.OFF_SCREEN = True
+    F = np.asarray(F)
+    if uv is not None:
+        FUV = F if FUV is None else np.asarray(FUV)
+        Vx = np.asarray(V, float)[F.reshape(-1)]
+        mesh = _polydata(Vx, np.arange(3 * len(F)).reshape(-1, 3))
+        mesh.active_texture_coordinates = np.asarray(uv, float)[FUV.reshape(-1)]
+    else:
+        mesh = _polydata(V, F)
+    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    pl.set_background("white")
+    if uv is not None:
+        tex = pv.Texture(checkerboard_texture() if texture is None else texture)
+        pl.add_mesh(mesh, texture=tex, smooth_shading=False)
+    elif scalars is not None:
+        mesh.cell_data["value"] = np.asarray(scalars, float)
+        pl.add_mesh(mesh, scalars="value", cmap=cmap, clim=clim, show_scalar_bar=scalar_bar is not None,
+                    scalar_bar_args={"title": scalar_bar} if scalar_bar else None)
+    else:
+        pl.add_mesh(mesh, color="lightsteelblue")
+    if view is not None:
+        pl.camera_position = view
+    else:
+        pl.view_isometric()
+    img = pl.screenshot(return_img=True)
+    pl.close()
+    return np.asarray(img)
+
+
+def render_checkerboard(V, F, UV, FUV=None, **kw):
+    """The mesh textured with a checkerboard through ``UV`` (RGB image array)."""
+    return render_surface(V, F, uv=UV, FUV=FUV, **kw)
+
+
+def plot_checkerboard_transfer(V, F, UV, FUV=None, *, title=None, view=None):
+    """The paper's standard figure: checkerboard on the 3D mesh beside the UV layout.
+
+    Returns
+    -------
+    fig : matplotlib Figure
+    """
+    plt = _mpl()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 5))
+    a.imshow(render_checkerboard(V, F, UV, FUV, view=view))
+    a.set_axis_off()
+    a.set_title("checkerboard transfer", fontsize=9)
+    plot_uv_layout(V, F, UV, ax=b, FUV=FUV)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def plot_face_heatmap(V, F, values, *, ax=None, title="", cmap="coolwarm", clim=None, view=None, label=None):
+    """A per-face scalar (e.g. det J or conformal distortion) on the surface."""
+    plt = _mpl()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5, 5))
+    ax.imshow(render_surface(V, F, scalars=values, cmap=cmap, clim=clim, view=view, scalar_bar=label))
+    ax.set_axis_off()
+    ax.set_title(title, fontsize=9)
+    return ax
+
+
+def plot_trace(trace, axes=None, *, label=None):
+    """Solver trace: E_SD, min det J and cumulative rejected steps per iteration."""
+    plt = _mpl()
+    if axes is None:
+        _, axes = plt.subplots(1, 3, figsize=(12, 3.2))
+    it = trace["iter"]
+    axes[0].semilogy(it, trace["esd"], label=label)
+    axes[0].set_title("E_SD (true)")
+    axes[1].semilogy(it, np.maximum(trace["min_det"], 1e-12), label=label)
+    axes[1].set_title("min det J")
+    axes[2].plot(it, trace["rejected"], label=label)
+    axes[2].set_title("rejected steps (cumulative)")
+    for a in axes:
+        a.set_xlabel("iteration")
+    if label:
+        axes[0].legend(fontsize=8)
+    return axes
+
+
+def _save(fig, path):
+    from .io import atomic_write
+
+    with atomic_write(path, "wb") as fh:
+        fig.savefig(fh, dpi=110, format="png")
+    _mpl().close(fig)
+
+
+def save_uv_layout(path, V, F, UV, FUV=None):
+    """Write the UV layout PNG (flipped faces in red)."""
+    plt = _mpl()
+    fig, ax = plt.subplots(figsize=(6, 6))
+    plot_uv_layout(V, F, UV, ax=ax, FUV=FUV)
+    _save(fig, path)
+
+
+def save_checkerboard_transfer(path, V, F, UV, FUV=None):
+    """Write the checkerboard-transfer PNG (3D render beside the UV layout)."""
+    _save(plot_checkerboard_transfer(V, F, UV, FUV), path)

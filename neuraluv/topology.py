@@ -1,0 +1,265 @@
+"""Topology scan and the disk-like test.
+
+The chart solver assumes a disk: one connected, manifold, consistently oriented
+component with exactly one boundary loop (Euler characteristic 1). This module
+measures those properties and says, in words, why a chart fails the test.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, asdict, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+__all__ = ["TopologyReport", "topology_scan", "is_disk_like", "vertex_components", "split_components", "edge_face_counts"]
+
+
+def _undirected_edges(F):
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    return E, np.sort(E, axis=1)
+
+
+def edge_face_counts(F):
+    """Unique undirected edges and the number of faces using each.
+
+    Parameters
+    ----------
+    F : (m,3) int array
+
+    Returns
+    -------
+    E : (e,2) int array
+        Unique undirected edges (sorted endpoints).
+    counts : (e,) int array
+
+    Examples
+    --------
+    >>> E, c = edge_face_counts([[0, 1, 2], [0, 2, 3]])
+    >>> int((c == 1).sum()), int((c == 2).sum())
+    (4, 1)
+    """
+    F = np.asarray(F, np.int64)
+    _, Es = _undirected_edges(F)
+    E, counts = np.unique(Es, axis=0, return_counts=True)
+    return E, counts
+
+
+def vertex_components(n, F):
+    """Label vertices by connected component (through shared faces).
+
+    Returns
+    -------
+    ncomp : int
+    labels : (n,) int array
+    """
+    F = np.asarray(F, np.int64)
+    E, _ = _undirected_edges(F)
+    A = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
+    return connected_components(A, directed=False)
+
+
+def split_components(V, F):
+    """Split a mesh into its connected components.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+
+    Returns
+    -------
+    parts : list of (vidx, fidx)
+        For each component, the indices of its vertices in ``V`` and its faces in
+        ``F``, ordered by decreasing face count. ``F[fidx]`` re-indexed by
+        ``np.searchsorted(vidx, ...)`` gives the component's own faces.
+
+    Examples
+    --------
+    >>> V = np.zeros((6, 3)); F = np.array([[0, 1, 2], [3, 4, 5]])
+    >>> [(v.tolist(), f.tolist()) for v, f in split_components(V, F)]
+    [([0, 1, 2], [0]), ([3, 4, 5], [1])]
+    """
+    F = np.asarray(F, np.int64)
+    used = np.unique(F)
+    ncomp, labels = vertex_components(len(V), F)
+    flab = labels[F[:, 0]]
+    parts = []
+    for c in np.unique(flab):
+        fidx = np.flatnonzero(flab == c)
+        vidx = np.intersect1d(np.flatnonzero(labels == c), used)
+        parts.append((vidx, fidx))
+    parts.sort(key=lambda p: (-len(p[1]), p[1][0]))
+    return parts
+
+
+def _nonmanifold_vertices(n, F):
+    """Vertices whose incident faces do not form a single edge-connected fan."""
+    m = len(F)
+    if m == 0:
+        return np.zeros(0, np.int64)
+    corners_v = F.reshape(-1)  # corner id = 3*f + c
+    cid = np.arange(3 * m)
+    nxt = F[:, [1, 2, 0]].reshape(-1)
+    prv = F[:, [2, 0, 1]].reshape(-1)
+    keys = np.concatenate([np.stack([corners_v, nxt], 1), np.stack([corners_v, prv], 1)])
+    cids = np.concatenate([cid, cid])
+    _, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    order = np.argsort(inv, kind="stable")
+    inv_s, cid_s = inv[order], cids[order]
+    same = inv_s[1:] == inv_s[:-1]
+    rows, cols = cid_s[:-1][same], cid_s[1:][same]
+    A = sp.coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * m, 3 * m))
+    _, lab = connected_components(A, directed=False)
+    pairs = np.unique(np.stack([corners_v, lab], 1), axis=0)
+    fans = np.bincount(pairs[:, 0], minlength=n)
+    return np.flatnonzero(fans > 1)
+
+
+@dataclass
+class TopologyReport:
+    """Result of :func:`topology_scan`. Counts refer to the scanned ``(V, F)``."""
+
+    n_vertices: int
+    n_faces: int
+    n_edges: int
+    components: int
+    boundary_loops: int
+    euler_characteristic: int
+    genus: int | None
+    nonmanifold_edges: int
+    nonmanifold_vertices: int
+    inconsistent_edges: int
+    unreferenced_vertices: int
+    boundary_edges: int
+    component_faces: list = field(default_factory=list)
+
+    @property
+    def manifold(self):
+        return self.nonmanifold_edges == 0 and self.nonmanifold_vertices == 0
+
+    @property
+    def oriented(self):
+        return self.inconsistent_edges == 0
+
+    def as_dict(self):
+        d = asdict(self)
+        d["manifold"] = self.manifold
+        d["oriented"] = self.oriented
+        return d
+
+
+def topology_scan(V, F):
+    """Measure components, boundaries, Euler characteristic, manifoldness, orientation.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+
+    Returns
+    -------
+    TopologyReport
+
+    Notes
+    -----
+    ``genus`` follows ``chi = 2c - 2g - b`` summed over components and is
+    reported only for manifold, consistently oriented meshes (None otherwise).
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> V, F = disk(n_rings=4)
+    >>> r = topology_scan(V, F)
+    >>> r.components, r.boundary_loops, r.euler_characteristic, r.genus
+    (1, 1, 1, 0)
+    """
+    V = np.asarray(V, float)
+    F = np.asarray(F, np.int64)
+    n = len(V)
+    Ed, Es = _undirected_edges(F)
+    E, inv, counts = np.unique(Es, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    nonmanifold_edges = int((counts > 2).sum())
+    # orientation: an interior manifold edge must be used once in each direction
+    forward = (Ed[:, 0] < Ed[:, 1]).astype(np.int64)
+    fwd_count = np.bincount(inv, weights=forward, minlength=len(E))
+    inconsistent = int(((counts == 2) & (fwd_count != 1)).sum())
+    # boundary loops: components of the boundary-edge graph
+    bE = E[counts == 1]
+    if len(bE):
+        bv, bidx = np.unique(bE, return_inverse=True)
+        bidx = bidx.reshape(-1, 2)
+        A = sp.coo_matrix((np.ones(len(bidx)), (bidx[:, 0], bidx[:, 1])), shape=(len(bv), len(bv)))
+        loops, _ = connected_components(A, directed=False)
+    else:
+        loops = 0
+    used = np.unique(F)
+    ncomp, labels = vertex_components(n, F)
+    comp_ids = np.unique(labels[used])
+    chi = int(len(used) - len(E) + len(F))
+    nm_vertices = _nonmanifold_vertices(n, F)
+    genus = None
+    if nonmanifold_edges == 0 and len(nm_vertices) == 0 and inconsistent == 0:
+        g2 = 2 * len(comp_ids) - chi - loops
+        genus = int(g2 // 2)
+    flab = labels[F[:, 0]] if len(F) else np.zeros(0, np.int64)
+    comp_faces = sorted((int((flab == c).sum()) for c in comp_ids), reverse=True)
+    return TopologyReport(
+        n_vertices=n,
+        n_faces=int(len(F)),
+        n_edges=int(len(E)),
+        components=int(len(comp_ids)),
+        boundary_loops=int(loops),
+        euler_characteristic=chi,
+        genus=genus,
+        nonmanifold_edges=nonmanifold_edges,
+        nonmanifold_vertices=int(len(nm_vertices)),
+        inconsistent_edges=inconsistent,
+        unreferenced_vertices=int(n - len(used)),
+        boundary_edges=int(len(bE)),
+        component_faces=comp_faces,
+    )
+
+
+def is_disk_like(V, F, report: TopologyReport | None = None):
+    """Decide whether ``(V, F)`` is a topological disk, and why not.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    report : TopologyReport, optional
+        A scan already computed for ``(V, F)``.
+
+    Returns
+    -------
+    ok : bool
+    reason : str
+        ``"disk"`` when ok, otherwise the first violated condition in words.
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> is_disk_like(*disk(n_rings=3))
+    (True, 'disk')
+    """
+    r = report or topology_scan(V, F)
+    if r.n_faces == 0:
+        return False, "no faces"
+    if r.components != 1:
+        return False, f"{r.components} connected components (solve them one chart at a time)"
+    if r.nonmanifold_edges:
+        return False, f"{r.nonmanifold_edges} non-manifold edges (shared by more than two faces)"
+    if r.nonmanifold_vertices:
+        return False, f"{r.nonmanifold_vertices} non-manifold vertices (bow-tie fans)"
+    if r.inconsistent_edges:
+        return False, f"{r.inconsistent_edges} edges with inconsistent face winding"
+    if r.boundary_loops == 0:
+        return False, "closed surface without boundary: cut seams first (e.g. `neuraluv atlas`)"
+    if r.boundary_loops > 1:
+        return False, f"{r.boundary_loops} boundary loops (holes or an annulus): needs a seam joining them"
+    if r.euler_characteristic != 1:
+        return False, f"Euler characteristic {r.euler_characteristic} != 1 (genus {r.genus}): handles need seams"
+    return True, "disk"
