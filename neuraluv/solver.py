@@ -42,12 +42,18 @@ class SolverConfig:
     eps_J : switch point of the C² inverse-determinant extension.
     eps : barrier margin; ``alpha_start → alpha_end`` its annealed weight.
     lr, lr_min : cosine learning-rate range.
+    betas : Adam's moment decay rates. The paper does not state them; with
+        PyTorch's default beta2 = 0.999 one gradient spike from a nearly
+        collapsed triangle dominates the second-moment estimate for ~1,000
+        steps and the solve crawls (see docs/RESULTS.md), so beta2 = 0.99.
     warmup_iters : iterations fitting the network to the initial map.
     iterations : energy-optimisation iterations.
     reject : determinant-aware step rejection on/off.
     det_drop : a step is also rejected when it pushes the smallest determinant
         below ``min(eps, det_drop * previous min det)`` (0 disables this guard).
     max_backtracks, backtrack : halvings of the step allowed per iteration.
+    step_recover : after an accepted step the step scale grows by this factor
+        (capped at 1); 1.0 keeps every reduction for the rest of the solve.
     early_stop, patience, tol : stop when the best E_SD improved by less than
         ``tol`` (relative) over the last ``patience`` iterations.
     retries : extra attempts (next seed, halved learning rate) if a solve ends invalid.
@@ -64,6 +70,7 @@ class SolverConfig:
     alpha_start: float = 10.0
     alpha_end: float = 0.1
     lr: float = 5e-4
+    betas: tuple = (0.9, 0.99)
     lr_min: float = 1e-6
     warmup_iters: int = 200
     warmup_lr: float = 1e-4
@@ -71,6 +78,7 @@ class SolverConfig:
     reject: bool = True
     max_backtracks: int = 12
     det_drop: float = 0.5
+    step_recover: float = 2.0
     backtrack: float = 0.5
     early_stop: bool = False
     patience: int = 100
@@ -240,7 +248,7 @@ def _attempt(cfg, X, Fn_t, dCi, A, u_tutte, target, seed, device, progress, call
     if callback is not None:
         callback("warmup_end", 0, model)
 
-    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
+    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, betas=tuple(cfg.betas))
     n = cfg.iterations
     u = model(Xt)
     loss, det, fro2 = objective(jacobians_torch(u, Fn_t, dCi), A, alpha_schedule(0, n, cfg.alpha_start, cfg.alpha_end), cfg.eps_J, cfg.eps)
@@ -290,7 +298,7 @@ def _attempt(cfg, X, Fn_t, dCi, A, u_tutte, target, seed, device, progress, call
         if not accepted:
             stop = "stalled"
             break
-        scale = min(1.0, step_scale * 2.0)
+        scale = min(1.0, step_scale * cfg.step_recover)
         u, loss, det, fro2, flips_cur, mind_cur = u_new, loss_new, det_new, fro2_new, flips_new, mind_new
         esd = true_esd(fro2, det)
         if (flips_cur, esd) < best[:2]:
