@@ -327,17 +327,11 @@ def slim(V, F, *, iterations=1000):
     Minimises ``Σ_t A_t (‖J_t‖²_F + ‖J_t⁻¹‖²_F)`` by reweighted local/global
     proxies with a flip-preventing line search.
     """
-    import igl
-
+    from .relax import slim_relax
     from .tutte import tutte
 
     _require_disk(V, F, "slim")
-    start = tutte(V, F)
-    data = igl.slim_precompute(np.asfortranarray(V, dtype=np.float64), np.asfortranarray(F, dtype=np.int32),
-                               np.asfortranarray(start), igl.SYMMETRIC_DIRICHLET,
-                               np.zeros(0, np.int32), np.zeros((0, 2), order="F"), 0.0)
-    uv = igl.slim_solve(data, int(iterations))
-    return np.asarray(uv)[:, :2]
+    return slim_relax(V, F, tutte(V, F), iterations)
 
 
 # ------------------------------------------------------------------ BFF

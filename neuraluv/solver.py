@@ -57,6 +57,13 @@ class SolverConfig:
     early_stop, patience, tol : stop when the best E_SD improved by less than
         ``tol`` (relative) over the last ``patience`` iterations.
     retries : extra attempts (next seed, halved learning rate) if a solve ends invalid.
+    start_relax, relax_below : not in the paper (0 in the ``paper`` preset). When
+        the Tutte start's smallest det J is below ``relax_below``, relax it with
+        ``start_relax`` flip-free SLIM iterations (:func:`neuraluv.relax.slim_relax`)
+        before the residual network is attached. Uniform Tutte maps crush long
+        protrusions exponentially (Hand: min det J 2e-10), and from there every
+        Adam step of a network that is smooth in 3D flips a crushed triangle,
+        so the literal recipe stalls; see docs/RESULTS.md.
     """
 
     k: int = 16
@@ -84,6 +91,8 @@ class SolverConfig:
     patience: int = 100
     tol: float = 1e-3
     retries: int = 2
+    start_relax: int = 0
+    relax_below: float = 1e-6
 
     def as_dict(self):
         return asdict(self)
@@ -137,6 +146,8 @@ class ChartResult:
     time : wall seconds for the whole solve (features, Tutte, attempts).
     seed : seed of the returned attempt; attempts : number of attempts made.
     stop : why the returned attempt stopped (``"budget"``, ``"early_stop"``, ``"stalled"``).
+    start : the valid start the residual network was attached to (``"tutte"``,
+        or ``"tutte+slimN"`` when ``start_relax`` applied).
     attempt_metrics : metrics of every neural attempt, in order (ablations read
         the invalid ones here even when a fallback map is returned).
     neural_uv : (n,2) float array, the best neural attempt (equals ``uv`` for
@@ -154,6 +165,7 @@ class ChartResult:
     stop: str = ""
     config: dict = field(default_factory=dict, repr=False)
     network: object = field(default=None, repr=False)
+    start: str = "tutte"
     attempt_metrics: list = field(default_factory=list, repr=False)
     neural_uv: np.ndarray = field(default=None, repr=False)
 
@@ -171,6 +183,7 @@ class ChartResult:
             "seed": self.seed,
             "attempts": self.attempts,
             "stop": self.stop,
+            "start": self.start,
             "iterations": len(self.trace.get("iter", [])),
             "rejected_steps": int(self.trace["rejected"][-1]) if self.trace.get("rejected") else 0,
         }
@@ -388,6 +401,14 @@ def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, c
     X = chart_features(Vn, F, cfg.k, eig=(eig[0][: cfg.k], eig[1][:, : cfg.k]))
     u_tutte = tutte(Vn, F)
     tutte_metrics = distortion_metrics(Vn, F, u_tutte)
+    start = "tutte"
+    if cfg.start_relax > 0 and tutte_metrics["valid"] and tutte_metrics["min_det"] < cfg.relax_below:
+        from .relax import slim_relax
+
+        relaxed = slim_relax(Vn, F, u_tutte, cfg.start_relax)
+        if distortion_metrics(Vn, F, relaxed)["valid"]:
+            u_tutte, start = relaxed, f"tutte+slim{cfg.start_relax}"
+            tutte_metrics = distortion_metrics(Vn, F, u_tutte)
     dCi_np, A_np = local_frames(Vn, F)
     dCi = torch.as_tensor(dCi_np, dtype=torch.float64, device=dev)
     A = torch.as_tensor(A_np, dtype=torch.float64, device=dev)
@@ -412,7 +433,7 @@ def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, c
         if tutte_metrics["valid"]:
             uv = u_tutte * s
             reason = (f"neural solve invalid after {len(attempts)} attempts (best: {m['flips']} flipped faces); "
-                      "Tutte map used")
+                      f"the valid start ({start}) used")
             m = distortion_metrics(V, F, uv)
         else:
             reason = (
@@ -431,6 +452,7 @@ def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, c
         stop=stop,
         config=cfg.as_dict(),
         network=model,
+        start=start,
         attempt_metrics=[a[0] for a in attempts],
         neural_uv=neural_uv,
     )

@@ -77,7 +77,8 @@ def test_environment_yml_matches_pyproject():
     import yaml
 
     pp = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
-    wanted = set(pp["dependencies"]) | set(pp["optional-dependencies"]["test"])
+    extras = pp["optional-dependencies"]
+    wanted = set(pp["dependencies"]) | set(extras["test"]) | set(extras["docs"])
     env = yaml.safe_load((ROOT / "environment.yml").read_text())
     pip = [d for d in env["dependencies"] if isinstance(d, dict)][0]["pip"]
     pip = [p for p in pip if not p.startswith("-e")]

@@ -81,7 +81,7 @@ def test_invalid_absolute_init_falls_back_marked():
     V, F = datasets.spherical_cap(5)
     res = solve_chart(V, F, get_config("test", init="random", residual=False, iterations=10, retries=1), device="cpu")
     assert res.attempts == 2
-    assert res.status == "fallback" and "Tutte map used" in res.reason
+    assert res.status == "fallback" and "the valid start (tutte) used" in res.reason
     assert res.metrics["flips"] == 0  # the fallback is the (valid) Tutte map
 
 
@@ -104,3 +104,13 @@ def test_seeded_runs_are_reproducible():
     a = solve_chart(V, F, "test", device="cpu", seed=3)
     b = solve_chart(V, F, "test", device="cpu", seed=3)
     assert np.allclose(a.uv, b.uv)
+
+
+def test_start_relax_only_when_crushed():
+    """The optional SLIM relaxation applies only below relax_below and keeps validity."""
+    V, F = datasets.glove()
+    plain = solve_chart(V, F, get_config("test", iterations=5, start_relax=5, relax_below=1e-9), device="cpu")
+    assert plain.start == "tutte"  # glove's Tutte min det (~5e-3) is above the trigger
+    relaxed = solve_chart(V, F, get_config("test", iterations=5, start_relax=5, relax_below=1.0), device="cpu")
+    assert relaxed.start == "tutte+slim5" and relaxed.metrics["flips"] == 0
+    assert relaxed.trace["esd"][0] < plain.trace["esd"][0]

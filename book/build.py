@@ -1,0 +1,133 @@
+#!/usr/bin/env python
+"""Build the neuraluv book (Jupyter Book 1) from ../notebooks.
+
+    python book/build.py                  # sync notebooks into book/notebooks/, build book/_build/html
+    python book/build.py --output DIR     # stage a copy in DIR/src and build into DIR/_build/html
+    python book/build.py --all            # rebuild every page (the execution cache is still used)
+    python book/build.py --serial         # execute notebooks one by one (default: one per CPU core)
+    NEURALUV_PAPER_SCALE=1 python book/build.py   # execute the notebooks at paper scale
+
+Jupyter Book 1 only reads files under the book root, so the notebooks (the
+single source, committed without outputs) are copied next to ``_toc.yml``; the
+copies are git-ignored. Notebooks are executed with a cache (``execute:
+execute_notebooks: cache`` in ``_config.yml``): a notebook re-runs only when one
+of its code cells changes. Before Sphinx runs, notebooks missing from the cache
+are executed in parallel (one per CPU core, jupyter-cache's local multiprocess
+executor); Sphinx then only reads the cache. Quick and paper-scale outputs share the cache key,
+so rebuild with ``--clean-cache`` after switching ``NEURALUV_PAPER_SCALE``.
+Exit status: that of ``jupyter-book build`` (non-zero on a failed build).
+"""
+from __future__ import annotations
+
+import argparse
+import filecmp
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+BOOK = Path(__file__).resolve().parent
+NOTEBOOKS = BOOK.parent / "notebooks"
+SOURCES = ["_config.yml", "_toc.yml", "intro.md", "paper_scale.md", "api.md"]
+
+
+def sync_notebooks(src_dir: Path, dest_dir: Path) -> list[Path]:
+    """Mirror ``src_dir/*.ipynb`` into ``dest_dir`` (stale copies removed); returns the copies."""
+    dest_dir.mkdir(parents=True, exist_ok=True)
+    wanted = sorted(src_dir.glob("*.ipynb"))
+    names = {p.name for p in wanted}
+    for old in dest_dir.glob("*.ipynb"):
+        if old.name not in names:
+            old.unlink()
+    out = []
+    for p in wanted:
+        q = dest_dir / p.name
+        if not q.exists() or not filecmp.cmp(p, q, shallow=False):
+            shutil.copy2(p, q)
+        out.append(q)
+    return out
+
+
+def stage(dest: Path) -> Path:
+    """Copy the book sources and the notebooks into ``dest`` (a fresh source folder)."""
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in SOURCES:
+        shutil.copy2(BOOK / name, dest / name)
+    sync_notebooks(NOTEBOOKS, dest / "notebooks")
+    return dest
+
+
+def pre_execute(notebooks: list[Path], cache_dir: Path, timeout: int = 600) -> None:
+    """Execute the notebooks that have no cache entry yet, in parallel, into ``cache_dir``.
+
+    The cache is the one ``jupyter-book build`` reads (``execute_notebooks:
+    cache``), so Sphinx finds every notebook already executed. A notebook that
+    fails here is simply not cached: the build executes it again and reports
+    the error.
+    """
+    from jupyter_cache import get_cache
+    from jupyter_cache.executors.basic import JupyterExecutorLocalMproc
+
+    cache = get_cache(str(cache_dir))
+    uris = [str(nb) for nb in notebooks]
+    for uri in uris:
+        cache.add_nb_to_project(uri)
+    todo = [r.uri for r in cache.list_unexecuted(filter_uris=uris)]
+    if not todo:
+        return
+    print(f"executing {len(todo)} notebook(s) on {os.cpu_count()} processes", flush=True)
+    res = JupyterExecutorLocalMproc(cache).run_and_cache(filter_uris=todo, timeout=timeout)
+    for uri in res.excepted + res.errored:
+        print(f"  failed: {uri} (the build will re-run it and show the error)", flush=True)
+
+
+def jupyter_book() -> str:
+    """The ``jupyter-book`` executable of this interpreter's environment."""
+    here = Path(sys.executable).parent / "jupyter-book"
+    exe = str(here) if here.exists() else shutil.which("jupyter-book")
+    if exe is None:
+        sys.exit('jupyter-book is not installed: pip install -e ".[docs]" (Jupyter Book 1: "jupyter-book<2")')
+    return exe
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--output", type=Path, help="build outside the repository: sources staged in OUTPUT/src, HTML in OUTPUT/_build/html")
+    p.add_argument("--all", action="store_true", help="re-write every page (jupyter-book build --all)")
+    p.add_argument("--clean-cache", action="store_true", help="drop the execution cache first (re-executes every notebook)")
+    p.add_argument("--serial", action="store_true", help="no parallel pre-execution (Sphinx executes one by one)")
+    p.add_argument("--strict", action="store_true", help="treat Sphinx warnings as errors (-W --keep-going)")
+    a = p.parse_args(argv)
+
+    if a.output is not None:
+        out = a.output.resolve()
+        src = stage(out / "src")
+        copies = sorted((src / "notebooks").glob("*.ipynb"))
+    else:
+        out, src = BOOK, BOOK
+        copies = sync_notebooks(NOTEBOOKS, BOOK / "notebooks")
+    cache_dir = out / "_build" / ".jupyter_cache"
+    if a.clean_cache:
+        shutil.rmtree(cache_dir, ignore_errors=True)
+    # the notebooks say %matplotlib inline; a non-interactive MPLBACKEND in the
+    # environment must not turn the kernels' figures off
+    os.environ.pop("MPLBACKEND", None)
+    os.environ["PYVISTA_OFF_SCREEN"] = "true"
+    os.environ["PYDEVD_DISABLE_FILE_VALIDATION"] = "1"
+    if not a.serial and copies:
+        pre_execute(copies, cache_dir)
+    cmd = [jupyter_book(), "build", str(src), "--path-output", str(out), "--builder", "html"]
+    if a.all:
+        cmd.append("--all")
+    if a.strict:
+        cmd += ["-W", "--keep-going"]
+    print("+", " ".join(cmd), flush=True)
+    rc = subprocess.call(cmd, cwd=str(BOOK.parent))
+    if rc == 0:
+        print(f"book: {out / '_build' / 'html' / 'index.html'}")
+    return rc
+
+
+if __name__ == "__main__":
+    sys.exit(main())

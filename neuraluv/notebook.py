@@ -1,0 +1,138 @@
+"""The notebooks' one runtime switch: quick (CI) runs or paper-scale runs.
+
+Every notebook in ``notebooks/`` runs in about a minute on a 2-core CPU by
+default: small procedural charts, the ``"test"`` preset or short budgets, fixed
+seeds. Setting the environment variable ``NEURALUV_PAPER_SCALE=1`` before
+starting Jupyter (or ``make book``) switches every notebook to the paper's
+settings (the ``"paper"`` preset, the compact real charts when they are
+cached). Notebooks choose between the two with :func:`budget`.
+"""
+from __future__ import annotations
+
+import os
+import random
+
+import numpy as np
+
+__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart"]
+
+#: Name of the environment variable that selects paper-scale runs.
+ENV_VAR = "NEURALUV_PAPER_SCALE"
+
+_TRUE = {"1", "true", "yes", "on"}
+
+
+def paper_scale(environ=None) -> bool:
+    """True when ``NEURALUV_PAPER_SCALE`` is set to 1/true/yes/on.
+
+    Parameters
+    ----------
+    environ : mapping, optional
+        Where to read the variable (default ``os.environ``).
+
+    Examples
+    --------
+    >>> paper_scale({"NEURALUV_PAPER_SCALE": "1"}), paper_scale({})
+    (True, False)
+    """
+    env = os.environ if environ is None else environ
+    return env.get(ENV_VAR, "").strip().lower() in _TRUE
+
+
+def budget(quick, paper, *, scale=None):
+    """Pick the quick or the paper-scale value of a setting.
+
+    Parameters
+    ----------
+    quick : any
+        Value for the default quick run (CI, about a minute per notebook).
+    paper : any
+        Value for ``NEURALUV_PAPER_SCALE=1``.
+    scale : bool, optional
+        Force a mode (default: :func:`paper_scale`).
+
+    Examples
+    --------
+    >>> budget(200, 5000, scale=False), budget(200, 5000, scale=True)
+    (200, 5000)
+    """
+    return paper if (paper_scale() if scale is None else scale) else quick
+
+
+def mode() -> str:
+    """A one-line description of the active mode, printed by :func:`setup`."""
+    if paper_scale():
+        return f"paper-scale run ({ENV_VAR}=1): expect minutes to hours on a CPU"
+    return f"quick run (set {ENV_VAR}=1 for paper-scale settings)"
+
+
+def setup(seed=0, threads="auto"):
+    """Seed every random generator and set torch's CPU threads; returns the mode line.
+
+    Parameters
+    ----------
+    seed : int
+    threads : int, "auto" or None
+        ``torch.set_num_threads`` value. ``"auto"``: one thread for quick runs
+        (the tiny networks run fastest single-threaded, especially on a shared
+        machine), torch's default at paper scale. None leaves it alone.
+
+    Examples
+    --------
+    >>> setup(0, threads=None).startswith(("quick", "paper"))
+    True
+    """
+    import torch
+
+    os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+    if threads == "auto":
+        threads = None if paper_scale() else 1
+    if threads:
+        torch.set_num_threads(int(threads))
+    return mode()
+
+
+def load_chart(quick="glove", paper="camel", **quick_kwargs):
+    """Load the notebook's chart: ``quick`` by default, ``paper`` at paper scale.
+
+    A real mesh that is not cached falls back to ``quick`` with a printed note
+    (fetch it with ``python data_scripts/fetch.py``), so a notebook always runs.
+
+    Parameters
+    ----------
+    quick, paper : str
+        Names accepted by :func:`neuraluv.datasets.load`.
+    **quick_kwargs
+        Size options for a procedural ``quick`` chart (e.g. ``n_rings=8``),
+        passed to :func:`neuraluv.datasets.procedural`.
+
+    Returns
+    -------
+    name : str
+        The chart actually loaded.
+    V : (n,3) float array
+    F : (m,3) int array
+
+    Examples
+    --------
+    >>> name, V, F = load_chart("disk", "camel", n_rings=2)
+    >>> name, V.shape, F.shape
+    ('disk', (19, 3), (24, 3))
+    """
+    from . import datasets
+
+    def _quick():
+        if quick_kwargs:
+            return datasets.procedural(quick, **quick_kwargs)
+        return datasets.load(quick)
+
+    if not paper_scale():
+        return (quick, *_quick())
+    try:
+        return (paper, *datasets.load(paper))
+    except datasets.DataMissing as err:
+        print(f"{err}: using the procedural {quick!r} chart instead")
+        return (quick, *_quick())

@@ -1,0 +1,195 @@
+"""Atlas construction: repair, candidates, routing, fallbacks, packing, validation, export, CLI.
+
+Every atlas test validates the exported file after reading it back.
+"""
+import json
+
+import numpy as np
+import pytest
+
+from neuraluv.atlas import (
+    bisect_faces, build_atlas, chart_candidates, pca_uv, per_face_uv, prepare_mesh, read_atlas, route_chart,
+    self_overlap, validate_atlas, write_atlas,
+)
+from neuraluv.datasets import disk, sphere, spherical_cap
+from neuraluv.generated import add_nonmanifold, flip_windings, generated_asset, unweld
+from neuraluv.metrics import distortion_metrics
+from neuraluv.solver import get_config
+from neuraluv.topology import is_disk_like, topology_scan
+
+FAST = dict(preset="test", preview_iters=10, iterations=30, resolution=512, padding=4, threads=1)
+
+
+def _readback_ok(res, path):
+    write_atlas(path, res.V, res.F, res.UV, res.FUV)
+    V, F, UV, FUV = read_atlas(path)
+    assert len(F) == len(res.F)
+    v = validate_atlas(V, F, UV, FUV, padding=res.info["padding"], resolution=res.info["resolution"])
+    assert v["covered_faces"] == len(res.F)
+    assert v["flips"] == 0
+    assert v["overlapping_pairs"] == 0 and v["self_overlapping_islands"] == 0
+    assert v["uv_in_unit_square"]
+    assert v["padding_violations"] == 0
+    assert v["valid"]
+    return v
+
+
+def test_prepare_mesh_welds_orients_and_splits():
+    V, F = sphere(1)
+    V2, F2 = add_nonmanifold(V, flip_windings(F, 0.3, np.random.default_rng(1)), n=2)
+    V3, F3 = unweld(V2, F2)
+    assert not topology_scan(V3, F3).oriented or topology_scan(V3, F3).components > 1
+    Vr, Fr, vmap, info = prepare_mesh(V3, F3)
+    t = topology_scan(Vr, Fr)
+    assert t.oriented and t.manifold
+    assert info["repair"]["merged_vertices"] > 0 and info["reoriented_faces"] > 0 and info["split_vertices"] > 0
+    np.testing.assert_array_equal(Vr, V3[vmap])
+    assert len(Fr) == len(F3)  # nothing degenerate was added
+
+
+def test_candidates_are_disks_and_cover_every_face_once():
+    V, F, _ = generated_asset(0, res=14)
+    Vr, Fr, _, _ = prepare_mesh(V, F)
+    cands = chart_candidates(Vr, Fr)
+    faces = np.concatenate([f for f, _ in cands])
+    assert np.array_equal(np.sort(faces), np.arange(len(Fr)))
+    for f, src in cands:
+        vi = np.unique(Fr[f])
+        ok, why = is_disk_like(Vr[vi], np.searchsorted(vi, Fr[f]))
+        assert ok, (src, why)
+    assert any("xatlas" in s for _, s in cands)  # the closed surface needed seams
+
+
+def test_bisect_and_fallbacks_are_flip_free():
+    V, F = spherical_cap(n_rings=6, angle=0.95 * np.pi)  # nearly a sphere: PCA folds
+    assert distortion_metrics(V, F, pca_uv(V, F))["flips"] > 0
+    parts = bisect_faces(V, F, np.arange(len(F)))
+    assert sum(map(len, parts)) == len(F) and len(parts) >= 2
+    for uv, f in zip(per_face_uv(V, F[:5]), F[:5]):
+        assert distortion_metrics(V[f], np.array([[0, 1, 2]]), uv)["esd"] == pytest.approx(4.0)
+    # force the fallback chain: the network is skipped, the chart is split until PCA is valid
+    ch = route_chart(V, F, np.arange(len(F)), get_config("test"), get_config("test"), min_neural_faces=10**9)
+    assert ch.route == "fallback" and "small chart" in ch.reason
+    assert ch.method in ("split-pca", "per-face") and len(ch.islands) > 1
+    assert ch.metrics["flips"] == 0
+    for fidx, vi, Fl, uv in ch.islands:
+        assert self_overlap(uv, Fl) == 0.0
+
+
+def test_route_chart_neural_on_a_disk():
+    V, F = disk(n_rings=4)
+    ch = route_chart(V, F, np.arange(len(F)), get_config("test", iterations=10, retries=0), get_config("test"))
+    assert ch.route == "neural" and ch.method == "neural" and ch.reason == ""
+    assert ch.metrics["flips"] == 0 and ch.solver["status"] == "neural"
+
+
+def test_atlas_closed_sphere_obj_readback(tmp_path):
+    res = build_atlas(*sphere(2), **FAST)
+    t = res.totals()
+    assert t["coverage"] == 1.0 and t["flips"] == 0
+    assert t["neural_share"] >= 0.8
+    v = _readback_ok(res, tmp_path / "sphere.obj")
+    assert v["islands"] == t["islands"] >= 2
+    rep = json.loads(json.dumps(res.report()))
+    assert {"route", "reason", "metrics", "time"} <= set(rep["charts"][0])
+
+
+def test_atlas_generated_messy_glb_readback(tmp_path):
+    V, F, info = generated_asset(2, res=16)  # soup, flips, slivers, fragments, non-manifold
+    res = build_atlas(V, F, **FAST)
+    t = res.totals()
+    assert t["covered_faces"] == t["repaired_faces"] and t["flips"] == 0
+    assert all(c.reason for c in res.charts if c.route == "fallback")  # every fallback says why
+    _readback_ok(res, tmp_path / "gen.glb")
+    _readback_ok(res, tmp_path / "gen.obj")
+
+
+def test_atlas_xatlas_packer(tmp_path):
+    res = build_atlas(*sphere(1), packer="xatlas", **FAST)
+    assert 0 < res.info["utilisation"] <= 1
+    _readback_ok(res, tmp_path / "x.obj")
+
+
+def test_validate_atlas_detects_each_failure():
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    F = np.array([[0, 1, 2], [0, 1, 2]])
+    FUV = np.array([[0, 1, 2], [3, 4, 5]])
+    good = np.array([[0.1, 0.1], [0.3, 0.1], [0.1, 0.3], [0.6, 0.6], [0.8, 0.6], [0.6, 0.8]])
+    assert validate_atlas(V, F, good, FUV, padding=4, resolution=64)["valid"]
+    near = good.copy()
+    near[3:] -= 0.35  # 0.07 apart, closer than 8 texels at 64 (0.125), not touching
+    r = validate_atlas(V, F, near, FUV, padding=8, resolution=64)
+    assert r["padding_violations"] == 1 and not r["valid"]
+    over = good.copy()
+    over[3:] = good[:3] + 0.05
+    assert validate_atlas(V, F, over, FUV)["overlapping_pairs"] == 1
+    flip = good.copy()
+    flip[[4, 5]] = flip[[5, 4]]
+    assert validate_atlas(V, F, flip, FUV)["flips"] == 1
+    out = good.copy()
+    out[0] = [-0.01, 0.1]
+    assert not validate_atlas(V, F, out, FUV)["uv_in_unit_square"]
+    fold = np.array([[0.1, 0.1], [0.5, 0.1], [0.1, 0.5], [0.4, 0.4]])  # two faces of one island overlapping
+    r = validate_atlas(np.vstack([V, [[1, 1, 0]]]), np.array([[0, 1, 2], [0, 1, 3]]), fold, np.array([[0, 1, 2], [0, 1, 3]]))
+    assert r["self_overlapping_islands"] == 1 and not r["valid"]
+
+
+def test_bad_inputs_are_refused_or_valid(tmp_path):
+    from neuraluv.errors import NeuralUVError
+
+    with pytest.raises(NeuralUVError):
+        build_atlas(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]), **FAST)
+    with pytest.raises(NeuralUVError):
+        build_atlas(np.array([[0.0, 0, 0], [1, 0, np.nan], [0, 1, 0]]), np.array([[0, 1, 2]]), **FAST)
+    huge = np.array([[0.0, 0, 0], [1e300, 0, 0], [0, 1e300, 0], [1e300, 1e300, 1e290]])
+    res = build_atlas(huge, np.array([[0, 1, 2], [1, 3, 2]]), **FAST)
+    _readback_ok(res, tmp_path / "huge.obj")
+
+
+def test_cli_check_atlas_and_errors(tmp_path, capsys):
+    from neuraluv.cli import main
+    from neuraluv.io import write_obj
+
+    V, F, _ = generated_asset(7, res=14)
+    src = tmp_path / "in.obj"
+    write_obj(src, V, F, np.zeros((len(V), 2)))
+    assert main(["check", str(src), "--json"]) == 0
+    chk = json.loads(capsys.readouterr().out)
+    kinds = {f["kind"] for f in chk["findings"]}
+    assert {"non-manifold edges", "duplicate faces"} <= kinds
+    assert all(f["meaning"] and f["repair"] for f in chk["findings"])
+    out, rep = tmp_path / "a.obj", tmp_path / "a.json"
+    rc = main(["atlas", str(src), "-o", str(out), "--report", str(rep), "--preset", "test", "--preview-iters", "10",
+               "--resolution", "512", "--threads", "1", "--quiet"])
+    assert rc == 0
+    r = json.loads(rep.read_text())
+    assert r["ok"] and r["readback"]["flips"] == 0 and r["readback"]["covered_faces"] == r["totals"]["repaired_faces"]
+    assert abs(r["totals"]["neural_share"] + r["totals"]["fallback_share"] - 1) < 1e-12
+    capsys.readouterr()
+    (tmp_path / "empty.obj").write_text("")
+    assert main(["atlas", str(tmp_path / "empty.obj"), "-o", str(tmp_path / "e.obj")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "empty" in err[0]
+    assert main(["atlas", str(src), "-o", str(tmp_path / "e.png")]) == 2
+
+
+def test_renders_route_figure(tmp_path):
+    pytest.importorskip("pyvista")
+    from neuraluv.atlas import save_renders
+
+    res = build_atlas(*sphere(1), **{**FAST, "min_neural_faces": 6})
+    assert (res.face_route == 0).any() and (res.face_route == 1).any()
+    paths = save_renders(res, tmp_path)
+    assert all(p.exists() and p.stat().st_size > 1000 for p in paths)
+
+
+def test_slivers_are_removed_and_counted():
+    V, F = disk(n_rings=3)
+    a, b = F[0][:2]
+    needle = 0.5 * (V[a] + V[b]) + [0, 0, 1e-9]  # a fin 1e-9 high on an edge
+    V2 = np.vstack([V, needle])
+    F2 = np.vstack([F, [[b, a, len(V)]]])
+    Vr, Fr, vmap, info = prepare_mesh(V2, F2)
+    assert info["sliver_faces"] == 1 and len(Fr) == len(F)
+    _, _, _, info = prepare_mesh(V2, F2, min_height=0)
+    assert info["sliver_faces"] == 0

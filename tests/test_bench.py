@@ -1,0 +1,181 @@
+"""The benchmark runners (``neuraluv bench``): quick-mode smoke with real content checks."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from neuraluv import paper_values as PV
+from neuraluv import tables
+from neuraluv.cli import main
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    """Tiny networks run faster on one thread (and leave the other core to the rest of the suite)."""
+    n = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(n)
+
+
+# ------------------------------------------------------------------ tables / paper values
+
+def test_number_formatting_matches_the_paper():
+    assert tables.fmt_num(1.47e9) == "1.47×10^9"
+    assert tables.fmt_num(7.86e7) == "7.86×10^7"
+    assert tables.fmt_num(30909.10) == "30909.10"
+    assert tables.fmt_pct(13.56) == "13.56%"
+    assert tables.fraction(42, 47, pct=True) == "42/47 (89.4%)"
+    assert tables.with_paper("4.21", "4.14") == "4.21 [4.14]"
+    assert "†" in tables.grey("8.98") and "color:gray" in tables.grey("8.98")
+    assert tables.plain(tables.grey("8.98")) == "8.98†"
+
+
+def test_paper_values_are_the_published_ones():
+    assert PV.TABLE2[("camel", "slim-1k")]["esd"] == 4.09
+    assert PV.TABLE2[("hand", "neural")]["time"] == 23.44
+    assert PV.TABLE2[("bob", "lscm")] is None
+    assert ("hand", "lscm") in PV.TABLE2_GREYED and ("camel", "bff") not in PV.TABLE2_GREYED
+    assert PV.TABLE3["bob"]["cb"] == (3, 3) and PV.TABLE3["bob"]["optcuts"] == ("cleanup fail", None)
+    assert PV.TABLE4["random init"] == (None, 50.60, -33.47)
+    assert PV.TABLE6["Xatlas stratified"]["valid"] == 42 and PV.TABLE6["Xatlas stratified"]["tried"] == 47
+    assert PV.TABLE7[("thingi", 5000)]["median_esd"] == 29.09
+
+
+def test_rowlog_resume_skips_finished_keys(tmp_path):
+    log = tables.RowLog(tmp_path / "rows.jsonl")
+    calls = []
+    log.run(("m", "a", {"x": 1}), lambda: calls.append(1) or {"v": 1.0})
+    again = tables.RowLog(tmp_path / "rows.jsonl", resume=True)
+    row = again.run(("m", "a", {"x": 1}), lambda: calls.append(2) or {"v": 2.0})
+    assert row == {"v": 1.0} and calls == [1] and again.skipped == 1
+    # a different config is a different row
+    again.run(("m", "a", {"x": 2}), lambda: calls.append(3) or {"v": 3.0})
+    assert calls == [1, 3]
+    # without resume the log starts empty
+    assert not tables.RowLog(tmp_path / "rows.jsonl").done(("m", "a", {"x": 1}))
+
+
+def test_machine_line_names_the_machine():
+    line = tables.machine_line(device="cpu")
+    assert "torch" in line and "cores" in line and "commit" in line and "UTC" in line
+
+
+def test_cli_lists_every_benchmark(capsys):
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    out = capsys.readouterr().out
+    for name in ("compact", "failure-modes", "ablation", "pareto", "charts", "ntk"):
+        assert name in out
+
+
+# ------------------------------------------------------------------ runners (quick mode)
+
+def test_compact_quick_rows_statuses_and_resume(tmp_path):
+    from neuraluv.bench_compact import bench
+
+    res = bench(quick=True, output=tmp_path, figures=False, show_progress=False)
+    rows = {(r["mesh"], r["method"], r["mode"]): r for r in res.rows}
+    # 6 methods on each of 2 meshes + 4 per-component rows for the 3-component chart
+    assert len(res.rows) == 16
+    assert rows[("components", "lscm", "whole")]["status"] == "init fail"
+    assert rows[("components", "lscm", "per component")]["status"] == "ok"
+    assert rows[("glove", "neural", "whole")]["status"] == "neural" and rows[("glove", "neural", "whole")]["flips"] == 0
+    assert rows[("glove", "optcuts", "whole")]["status"] in ("unavailable", "ok", "error")
+    md = (tmp_path / "table2_compact.md").read_text()
+    assert "| Mesh | Method |" in md and "Machine:" in md and "Produced by" in md and "init fail" in md
+    csv = (tmp_path / "table2_compact.csv").read_text().splitlines()
+    assert csv[0].startswith("mesh,mode,method") and len(csv) == 17
+    again = bench(quick=True, output=tmp_path, figures=False, show_progress=False, resume=True)
+    assert again.skipped == 16
+    assert [r["esd"] for r in again.rows] == [r["esd"] for r in res.rows]
+
+
+def test_compact_greys_flipped_distortion_and_prints_paper_values(tmp_path, monkeypatch):
+    """A folding method's distortion is greyed; a paper mesh gets the paper's numbers beside ours."""
+    from neuraluv import bench_compact, datasets
+
+    def fake_load(names, quick=False):  # the curled glove makes ARAP fold; call it "camel"
+        V, F = datasets.glove(res=2, curl=2.5, finger_length=7)
+        return [("camel", V, F)], []
+
+    monkeypatch.setattr(bench_compact, "load_meshes", fake_load)
+    res = bench_compact.bench(["camel"], ["lscm", "arap"], output=tmp_path, figures=False, show_progress=False)
+    arap = next(r for r in res.rows if r["method"] == "arap")
+    assert arap["flips"] > 0
+    md = res.markdown
+    assert "[30909.10†]" in tables.plain(md)  # the paper greys it too
+    assert "[0.22%]" in md and "[406.22†]" in tables.plain(md)  # LSCM and ARAP on Camel, as published
+    arap_line = next(line for line in md.splitlines() if "| ARAP |" in line)
+    assert arap_line.count("color:gray") >= 3  # E_SD, conformal, area of the folded map
+    lscm_line = next(line for line in md.splitlines() if "| LSCM |" in line)
+    assert "**" in lscm_line.split("[")[0]  # the only valid fixed-chart map is the best: bold
+
+
+def test_failure_modes_quick(tmp_path):
+    from neuraluv.bench_failure_modes import bench
+
+    res = bench(quick=True, output=tmp_path, neural=False, show_progress=False)
+    cells = {(r["mesh"], r["method"]): r["cell"] for r in res.rows}
+    assert cells[("components", "slim-20")] == "init fail" and cells[("components", "slim-1k")] == "init fail"
+    assert cells[("components", "bff")].startswith("E_SD=")
+    assert cells[("glove", "slim-1k")].startswith(("E_SD=", ""))
+    assert "| components | 3/3 |" in res.markdown and "| glove | 1/1 |" in res.markdown
+
+
+def test_ablation_quick_reports_invalid_attempt_and_fallback(tmp_path):
+    from neuraluv.bench_ablation import bench
+
+    res = bench(variants=["full", "random init"], quick=True, output=tmp_path, show_progress=False)
+    s = {x["variant"]: x for x in res.extra["summary"]}
+    assert s["full"]["valid"] == 1 and s["full"]["fallback_charts"] == 0
+    ri = s["random init"]
+    assert ri["valid"] == 0 and ri["flip_percent"] > 0 and ri["min_det"] < 0  # the invalid neural attempt
+    assert ri["fallback_charts"] == ri["charts"] == 1  # ...while the returned map is the marked fallback
+    row = next(r for r in res.rows if r["variant"] == "random init")
+    assert row["status"] == "fallback" and row["flips"] == 0  # the map actually returned is valid
+    assert "[50.60%]" in res.markdown and "[invalid]" in res.markdown and "1/1" in res.markdown
+
+
+def test_charts_quick_strata_and_denominators(tmp_path):
+    from neuraluv.bench_charts import bench, select_charts, stratum
+
+    res = bench(quick=True, output=tmp_path, show_progress=False)
+    neural = [r for r in res.rows if r["method"] == "neural"]
+    assert len(neural) == 6 and len({r["stratum"] for r in neural}) == 2
+    summ = next(s for s in res.extra["summary"] if s["method"] == "neural" and s["subset"] == "all")
+    assert summ["tried"] == 6 and f"{summ['valid']}/6 (" in res.markdown
+    assert "paper: Xatlas stratified" in res.markdown and "42/47 (89.4%)" in res.markdown
+    # the selection spreads a budget over strata and hands leftovers on
+    pool = [{"disk": True, "faces": f, "source": "s", "chart": i} for i, f in enumerate([20, 30, 40, 200, 5000])]
+    chosen = select_charts(pool, 4)
+    assert len(chosen) == 4 and {c["stratum"] for c in chosen} == {"tens", "hundreds", "thousands"}
+    assert stratum(12000) == "tens of thousands"
+
+
+def test_pareto_quick(tmp_path):
+    from neuraluv.bench_pareto import bench
+
+    res = bench(["glove"], [5, 15], quick=True, output=tmp_path, show_progress=False)
+    s = res.extra["summary"]
+    assert [x["iterations"] for x in s] == [5, 15] and all(x["n"] == 1 for x in s)
+    assert "1/1" in res.markdown and (tmp_path / "pareto.png").stat().st_size > 1000
+
+
+def test_cli_bench_runs_and_resumes(tmp_path, capsys):
+    args = ["bench", "failure-modes", "--quick", "--no-neural", "--meshes", "components", "-o", str(tmp_path), "--quiet"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "init fail" in out and "Machine:" in out
+    n = len((tmp_path / "rows.jsonl").read_text().splitlines())
+    assert n == 4
+    assert main(args + ["--resume"]) == 0
+    assert "4 row(s) taken from the resume log" in capsys.readouterr().out
+    rows = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
+    assert len(rows) == 4 and np.isnan(float(rows[0]["row"]["esd"])) or rows[0]["row"]["status"] == "init fail"
+
+
+def test_unknown_benchmark_method_is_a_user_error(tmp_path, capsys):
+    assert main(["bench", "compact", "--quick", "--methods", "nope", "-o", str(tmp_path)]) == 2
+    assert "unknown method" in capsys.readouterr().err
