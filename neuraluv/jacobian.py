@@ -36,8 +36,8 @@ def local_frames(V, F):
     Examples
     --------
     >>> dCi, A = local_frames([[0., 0, 0], [2, 0, 0], [0, 1, 0]], [[0, 1, 2]])
-    >>> dCi[0].round(3).tolist(), A.tolist()
-    [[[0.5, 0.0], [0.0, 1.0]], [1.0]]
+    >>> (dCi[0].round(3) + 0.0).tolist(), A.tolist()
+    ([[0.5, 0.0], [0.0, 1.0]], [1.0])
     """
     V = np.asarray(V, float)
     F = np.asarray(F, np.int64)

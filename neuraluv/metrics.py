@@ -142,8 +142,8 @@ def match_area(V, F, UV):
     Examples
     --------
     >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
-    >>> match_area(V, F, 10 * V[:, :2]).tolist()
-    [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    >>> bool(np.allclose(match_area(V, F, 10 * V[:, :2]), V[:, :2]))
+    True
     """
     UV = np.asarray(UV, float)
     dC_inv, A = local_frames(V, F)

@@ -56,7 +56,7 @@ class SolverConfig:
         (capped at 1); 1.0 keeps every reduction for the rest of the solve.
     early_stop, patience, tol : stop when the best E_SD improved by less than
         ``tol`` (relative) over the last ``patience`` iterations (checked only
-        after a quarter of the budget, past the early rejection phase).
+        after half the budget: trajectories often plateau early, then improve).
     retries : extra attempts (next seed, halved learning rate) if a solve ends invalid.
     start_relax, relax_below : not in the paper (0 in the ``paper`` preset). When
         the Tutte start's smallest det J is below ``relax_below``, relax it with
@@ -106,7 +106,7 @@ class SolverConfig:
 #: network for CI.
 PRESETS = {
     "paper": SolverConfig(),
-    "fast": SolverConfig(iterations=1500, early_stop=True, patience=150, tol=1e-3, start_relax=50),
+    "fast": SolverConfig(iterations=1500, early_stop=True, patience=300, tol=1e-3, start_relax=50),
     "test": SolverConfig(k=8, width=32, n_layers=3, iterations=60, warmup_iters=20, patience=20),
 }
 
@@ -334,7 +334,7 @@ def _attempt(cfg, X, Fn_t, dCi, A, u_tutte, target, seed, device, progress, call
             if it % 25 == 0:
                 bar.set_postfix(esd=f"{esd:.4g}", min_det=f"{trace['min_det'][-1]:.3g}", rej=rejected_total)
         best_hist.append(best[1])
-        if cfg.early_stop and it + 1 >= max(cfg.patience, n // 4) and best[0] == 0:
+        if cfg.early_stop and it + 1 >= max(cfg.patience, n // 2) and best[0] == 0:
             old = best_hist[-cfg.patience]
             if (old - best[1]) <= cfg.tol * abs(best[1]):
                 stop = "early_stop"

@@ -70,7 +70,7 @@ def fix_signs(phi, V, M=None):
     Examples
     --------
     >>> V = np.array([[0., 0, 0], [1, 0, 0], [2, 0, 0]])
-    >>> fix_signs(np.array([[1.0], [0.0], [-1.0]]), V).ravel().tolist()
+    >>> (fix_signs(np.array([[1.0], [0.0], [-1.0]]), V).ravel() + 0.0).tolist()
     [-1.0, 0.0, 1.0]
     """
     phi = np.array(phi, dtype=float, copy=True)
