@@ -844,8 +844,7 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     finite = bool(np.all(np.isfinite(UV)))
     used = UV[np.unique(FUV[FUV >= 0])] if m else UV[:0]
     in_box = bool(finite and len(used) and used.min() >= 0.0 and used.max() <= 1.0)
-    Fx = np.arange(3 * m).reshape(-1, 3)
-    met = distortion_metrics(V[F.reshape(-1)], Fx, UV[FUV.reshape(-1)]) if m else {"flips": 0}
+    met = distortion_metrics(V, F, UV, FUV) if m else {"flips": 0}
     flips = int(met["flips"])
     n, lab = uv_islands(FUV)
     polys, self_ov = [], 0

@@ -93,7 +93,7 @@ def cmd_repair(args):
                      preview_iters=args.preview_iters, threads=args.threads)
     write_atlas(out, res.V, res.F, res.UV, res.FUV)
     # verdict on the written file
-    from .uvrepair import face_dets
+    from .metrics import face_dets
     from .atlas import _normalize
 
     V2, F2, UV2, FUV2 = read_atlas(out)

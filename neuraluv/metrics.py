@@ -10,7 +10,7 @@ import numpy as np
 
 from .jacobian import jacobians, local_frames
 
-__all__ = ["face_metrics", "distortion_metrics", "metrics_from_jacobians", "match_area", "is_valid"]
+__all__ = ["face_metrics", "distortion_metrics", "metrics_from_jacobians", "match_area", "is_valid", "corner_jacobians", "face_dets"]
 
 
 def face_metrics(J):
@@ -84,7 +84,53 @@ def metrics_from_jacobians(J, A):
     return out
 
 
-def distortion_metrics(V, F, UV):
+def corner_jacobians(V, F, UV, FUV=None):
+    """Per-face Jacobians and areas of a layout with per-vertex or per-corner UVs.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array, optional
+        Per-corner indices into ``UV`` (an atlas with seams); ``None`` means
+        ``UV`` is per vertex (``FUV = F``).
+
+    Returns
+    -------
+    J : (m,2,2) float array
+    A : (m,) float array
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
+    >>> J, A = corner_jacobians(V, F, np.array([[9., 9], [0, 0], [1, 0], [0, 1]]), np.array([[1, 2, 3]]))
+    >>> J[0].tolist(), A.tolist()
+    ([[1.0, 0.0], [0.0, 1.0]], [0.5])
+    """
+    F = np.asarray(F, np.int64)
+    if FUV is None:
+        dC_inv, A = local_frames(V, F)
+        return jacobians(UV, F, dC_inv), A
+    # a per-corner layout: evaluate on an exploded copy (one vertex per corner)
+    Fx = np.arange(3 * len(F)).reshape(-1, 3)
+    dC_inv, A = local_frames(np.asarray(V, float)[F.reshape(-1)], Fx)
+    return jacobians(np.asarray(UV, float)[np.asarray(FUV, np.int64).reshape(-1)], Fx, dC_inv), A
+
+
+def face_dets(V, F, UV, FUV=None):
+    """det J of every face (≤ 0: flipped or degenerate; ``-inf`` when not finite).
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
+    >>> face_dets(V, F, V[:, [1, 0]]).tolist()
+    [-1.0]
+    """
+    return face_metrics(corner_jacobians(V, F, UV, FUV)[0])["det"]
+
+
+def distortion_metrics(V, F, UV, FUV=None):
     """Distortion and validity of a UV map of a triangle mesh.
 
     Parameters
@@ -92,7 +138,9 @@ def distortion_metrics(V, F, UV):
     V : (n,3) float array
         3D positions (the chart's own scale: E_SD is not scale invariant).
     F : (m,3) int array
-    UV : (n,2) float array
+    UV : (n,2) float array, or (p,2) with ``FUV``
+    FUV : (m,3) int array, optional
+        Per-corner indices into ``UV`` for layouts with seams.
 
     Returns
     -------
@@ -119,8 +167,7 @@ def distortion_metrics(V, F, UV):
     >>> distortion_metrics(V, F, V[:, [1, 0]])["flips"]  # mirrored
     1
     """
-    dC_inv, A = local_frames(V, F)
-    return metrics_from_jacobians(jacobians(UV, F, dC_inv), A)
+    return metrics_from_jacobians(*corner_jacobians(V, F, UV, FUV))
 
 
 def match_area(V, F, UV):

@@ -35,16 +35,14 @@ def checkerboard_texture(n_checks=16, res=512):
     return img.astype(np.uint8)
 
 
-def _flipped(V, F, UV):
-    from .jacobian import jacobians, local_frames
-    from .metrics import face_metrics
-
-    if V is None:
+def _flipped(V, F, UV, FUV=None):
+    if V is None:  # no 3D positions: the UV winding decides
         a = UV[F[:, 1]] - UV[F[:, 0]]
         b = UV[F[:, 2]] - UV[F[:, 0]]
         return (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) <= 0
-    dCi, _ = local_frames(V, F)
-    return ~(face_metrics(jacobians(UV, F, dCi))["det"] > 0)
+    from .metrics import face_dets
+
+    return ~(face_dets(V, F, UV, FUV) > 0)
 
 
 def plot_uv_layout(V, F, UV, ax=None, *, title=None, FUV=None, face_colors=None, show_box=True):
@@ -75,12 +73,7 @@ def plot_uv_layout(V, F, UV, ax=None, *, title=None, FUV=None, face_colors=None,
     FUV = F if FUV is None else np.asarray(FUV)
     if ax is None:
         _, ax = plt.subplots(figsize=(5, 5))
-    if V is not None:
-        # per-corner UVs: evaluate det J on an exploded copy of the mesh
-        Fx = np.arange(3 * len(F)).reshape(-1, 3)
-        flipped = _flipped(np.asarray(V, float)[F.reshape(-1)], Fx, UV[FUV.reshape(-1)])
-    else:
-        flipped = _flipped(None, FUV, UV)
+    flipped = _flipped(V, F, UV, FUV) if V is not None else _flipped(None, FUV, UV)
     tris = UV[FUV]
     fc = np.tile([0.85, 0.87, 0.9, 1.0], (len(F), 1)) if face_colors is None else face_colors
     pc = PolyCollection(tris, facecolors=fc, edgecolors=(0.2, 0.2, 0.25, 0.5), linewidths=0.15)

@@ -24,10 +24,9 @@ import numpy as np
 
 from .atlas import _local, _triangles_union, chart_candidates, route_chart, uv_islands, validate_atlas
 from .errors import NeuralUVError
-from .jacobian import jacobians, local_frames
-from .metrics import face_metrics
+from .metrics import face_dets
 
-__all__ = ["uv_charts", "chart_mesh", "face_dets", "UVRepairResult", "repair_uvs"]
+__all__ = ["uv_charts", "chart_mesh", "UVRepairResult", "repair_uvs"]
 
 
 def uv_charts(F, FUV):
@@ -82,17 +81,6 @@ def chart_mesh(V, F, FUV, fidx):
     Vc = np.zeros((len(ti), 3))
     Vc[Fc.reshape(-1)[::-1]] = V[F[fidx].reshape(-1)[::-1]]
     return ti, Vc, Fc
-
-
-def face_dets(V, F, UV, FUV):
-    """det J of every face of a per-corner layout (≤ 0: flipped or degenerate)."""
-    V = np.asarray(V, float)
-    m = len(F)
-    Vx = V[np.asarray(F).reshape(-1)]
-    Fx = np.arange(3 * m).reshape(-1, 3)
-    dCi, _ = local_frames(Vx, Fx)
-    J = jacobians(np.asarray(UV, float)[np.asarray(FUV).reshape(-1)], Fx, dCi)
-    return face_metrics(J)["det"]
 
 
 def _fit_into_box(islands_uv, islands_f, lo, hi):

@@ -8,7 +8,8 @@ from neuraluv.datasets import disk, spherical_cap
 from neuraluv.io import read_obj, write_obj
 from neuraluv.metrics import distortion_metrics
 from neuraluv.tutte import tutte
-from neuraluv.uvrepair import chart_mesh, face_dets, repair_uvs, uv_charts
+from neuraluv.metrics import face_dets
+from neuraluv.uvrepair import chart_mesh, repair_uvs, uv_charts
 
 from conftest import real_mesh
 
