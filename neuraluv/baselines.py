@@ -57,7 +57,6 @@ carry ``uv=None`` and metrics with ``nan`` values (see :func:`empty_metrics`).
 """
 from __future__ import annotations
 
-import math
 import os
 import shutil
 import subprocess

@@ -250,11 +250,10 @@ def _attempt(cfg, X, Fn_t, dCi, A, u_tutte, target, seed, device, progress, call
 
     # --- warm-up: fit the network to the initial map (stationary in residual mode)
     target = None if residual else target
-    warm = 0
     if target is not None and cfg.warmup_iters > 0:
         tgt = torch.as_tensor(target, dtype=torch.float64, device=device)
         opt_w = torch.optim.Adam(model.parameters(), lr=cfg.warmup_lr)
-        for warm in range(1, cfg.warmup_iters + 1):
+        for _ in range(cfg.warmup_iters):
             opt_w.zero_grad(set_to_none=True)
             fit = torch.mean((model(Xt) - tgt) ** 2)
             if fit.item() < 1e-14:
@@ -343,7 +342,7 @@ def _attempt(cfg, X, Fn_t, dCi, A, u_tutte, target, seed, device, progress, call
         bar.close()
     if callback is not None:
         callback("end", len(trace["iter"]), model)
-    return best[2].detach().cpu().numpy(), trace, stop, warm, model
+    return best[2].detach().cpu().numpy(), trace, stop, model
 
 
 def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, callback=None, label="chart", check=True):
@@ -421,7 +420,7 @@ def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, c
     attempts = []
     for a in range(cfg.retries + 1):
         c = replace(cfg, lr=cfg.lr * (0.5**a))
-        uv_n, trace, stop, warm, model = _attempt(c, X, Ft, dCi, A, u_tutte, target, seed + a, dev, progress, callback, f"{label} seed {seed + a}")
+        uv_n, trace, stop, model = _attempt(c, X, Ft, dCi, A, u_tutte, target, seed + a, dev, progress, callback, f"{label} seed {seed + a}")
         uv = uv_n * s
         m = distortion_metrics(V, F, uv)
         attempts.append((m, uv, trace, stop, seed + a, model))
