@@ -136,6 +136,7 @@ def empty_metrics(n_faces=0):
 
     Examples
     --------
+    >>> import math
     >>> m = empty_metrics(4); m["n_faces"], m["valid"], math.isnan(m["esd"])
     (4, False, True)
     """
