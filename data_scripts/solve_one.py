@@ -30,7 +30,8 @@ def main(argv):
         n = len(t["esd"])
         m = {k: round(v, 4) if isinstance(v, float) else v for k, v in r.metrics.items()}
         print(name, preset, over, r.status, r.start, m, "time", round(r.time, 1), r.stop,
-              "rejected", t["rejected"][-1] if n else 0, "iterations", n, flush=True)
+              "rejected", t["rejected"][-1] if n else 0,
+              "iterations", n, flush=True)
         if r.reason:
             print("   reason:", r.reason)
         for i in sorted({0, 10, 50, 100, 200, 500, 1000, 2000, 3000, 4000, n - 1}):

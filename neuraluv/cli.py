@@ -18,7 +18,7 @@ EXIT_INTERNAL = 1
 
 
 def _add_solver_args(p):
-    p.add_argument("--preset", default="fast", choices=["paper", "fast", "test"], help="solver preset (default: fast)")
+    p.add_argument("--preset", default="fast", choices=["paper", "fast", "literal", "test"], help="solver preset (default: fast)")
     p.add_argument("--seed", type=int, default=0, help="first seed of the retry schedule")
     p.add_argument("--device", default="auto", help="auto (CUDA when available), cpu or cuda")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

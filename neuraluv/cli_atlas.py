@@ -120,7 +120,7 @@ def cmd_sweep(args):
 
 
 def _solver_args(p, default="fast"):
-    p.add_argument("--preset", default=default, choices=["paper", "fast", "test"], help=f"solver preset (default: {default})")
+    p.add_argument("--preset", default=default, choices=["paper", "fast", "literal", "test"], help=f"solver preset (default: {default})")
     p.add_argument("--preview-iters", type=int, default=None, help="iterations of the preview pass (default: preset/5, >= 20)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--device", default="cpu", help="cpu (default), cuda or auto")
@@ -169,7 +169,7 @@ def register(sub):
     s.add_argument("--resolution", type=int, default=1024)
     s.add_argument("--padding", type=float, default=4.0)
     s.add_argument("--packer", default="shelf", choices=["shelf", "xatlas"])
-    s.add_argument("--preset", default="fast", choices=["paper", "fast", "test"])
+    s.add_argument("--preset", default="fast", choices=["paper", "fast", "literal", "test"])
     s.add_argument("--preview-iters", type=int, default=None)
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_sweep)

@@ -53,7 +53,7 @@ def add_common_arguments(p, name):
     """The options shared by every runner (see the module docstring)."""
     p.add_argument("-o", "--output", default=f"results/{name}", help=f"output folder (default: results/{name})")
     p.add_argument("--quick", action="store_true", help="tiny budgets and small inputs: finishes in seconds (CI, notebooks)")
-    p.add_argument("--preset", choices=["paper", "fast", "test"], default=None,
+    p.add_argument("--preset", choices=["paper", "fast", "literal", "test"], default=None,
                    help="neural solver preset (default: the runner's; 'test' under --quick)")
     p.add_argument("--meshes", nargs="+", default=None, metavar="NAME",
                    help="meshes to run (compact charts, registry or procedural names)")
