@@ -457,6 +457,11 @@ def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, c
                   f"even {cfg.max_backtracks} halvings down, was rejected (a flip, a collapsing "
                   "determinant or a rising loss); the valid start is returned (a start below relax_below is "
                   "un-crushed first when start_relax > 0)")
+    elif m["valid"] and np.array_equal(uv, u_tutte * s):
+        status = "fallback"
+        reason = (f"no accepted step improved on the start ({start}, min det J {tutte_metrics['min_det']:.2g}, "
+                  f"{len(trace['iter'])} iterations); the valid start is returned (a start below relax_below is "
+                  "un-crushed first when start_relax > 0)")
     elif not m["valid"]:
         status = "fallback"
         if tutte_metrics["valid"]:

@@ -152,3 +152,15 @@ def test_loss_rise_guard_bounds_every_accepted_step():
     lf = np.array(free.trace["loss"])
     assert np.any(lf[1:] > lf[:-1] * 1.01)
 
+
+
+def test_no_progress_from_the_start_is_a_marked_fallback():
+    """A run whose best map is still its start is not reported as a neural chart."""
+    V, F = datasets.glove(res=2)
+    # a learning rate so small that no step changes E_SD measurably: the start stays best
+    # unless an accepted step lowers E_SD at all; force that by a zero learning rate
+    res = solve_chart(V, F, get_config("test", lr=0.0, lr_min=0.0, iterations=5, retries=0), device="cpu")
+    assert res.status == "fallback" and "no accepted step improved on the start" in res.reason
+    assert res.metrics["flips"] == 0
+    ok = solve_chart(V, F, get_config("test", iterations=5, retries=0), device="cpu")
+    assert ok.status == "neural"
