@@ -73,8 +73,8 @@ class SolverConfig:
         margin ``eps``, at most ``start_relax`` of them; then the residual
         network is attached. Uniform Tutte maps crush long protrusions
         exponentially (Hand: min det J 2e-10), and from there every Adam step
-        of a network that is smooth in 3D flips a crushed triangle, so the
-        literal recipe stalls; see docs/RESULTS.md.
+        of a network that is smooth in 3D flips or further collapses a crushed
+        triangle, so the literal recipe makes no progress; see docs/RESULTS.md.
     """
 
     k: int = 16
