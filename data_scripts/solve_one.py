@@ -3,6 +3,7 @@
 
     python data_scripts/solve_one.py camel paper '{"betas": [0.9, 0.95]}'
     python data_scripts/solve_one.py hand fast
+    python data_scripts/solve_one.py camel paper '{"seed": 1}'
 
 Used for the solver sweeps quoted in docs/RESULTS.md (one torch thread, so
 two runs can share a 2-core machine). Multi-component inputs are solved
@@ -22,10 +23,11 @@ from neuraluv.topology import split_components
 def main(argv):
     name, preset = argv[0], argv[1]
     over = json.loads(argv[2]) if len(argv) > 2 else {}
+    seed = int(over.pop("seed", 0))  # the solver's first seed, not a config field
     torch.set_num_threads(1)
     V, F = datasets.load(name)
     for vi, fi in split_components(V, F):
-        r = solve_chart(V[vi], np.searchsorted(vi, F[fi]), get_config(preset, **over), device="cpu")
+        r = solve_chart(V[vi], np.searchsorted(vi, F[fi]), get_config(preset, **over), seed=seed, device="cpu")
         t = r.trace
         n = len(t["esd"])
         m = {k: round(v, 4) if isinstance(v, float) else v for k, v in r.metrics.items()}
