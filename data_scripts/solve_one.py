@@ -31,7 +31,7 @@ def main(argv):
         t = r.trace
         n = len(t["esd"])
         m = {k: round(v, 4) if isinstance(v, float) else v for k, v in r.metrics.items()}
-        print(name, preset, over, r.status, r.start, m, "time", round(r.time, 1), r.stop,
+        print(name, preset, over, "seed", seed, r.status, r.start, m, "time", round(r.time, 1), r.stop,
               "rejected", t["rejected"][-1] if n else 0,
               "iterations", n, flush=True)
         if r.reason:

@@ -309,6 +309,7 @@ def _attempt(cfg, X, Fn_t, dCi, A, u_tutte, target, seed, device, progress, call
         lr_it = _cosine_lr(it, n, cfg.lr, cfg.lr_min)
         step_scale = scale
         accepted = False
+        loss_limit = float(loss.item()) * (1.0 + cfg.loss_rise) if cfg.loss_rise > 0 else math.inf
         for _ in range(cfg.max_backtracks + 1):
             for g in opt.param_groups:
                 g["lr"] = lr_it * step_scale
@@ -322,7 +323,7 @@ def _attempt(cfg, X, Fn_t, dCi, A, u_tutte, target, seed, device, progress, call
             if ok and flips_cur == 0 and cfg.det_drop > 0:
                 ok = mind_new >= min(cfg.eps, cfg.det_drop * mind_cur)
             if ok and cfg.loss_rise > 0:
-                ok = float(loss_new.item()) <= float(loss.item()) * (1.0 + cfg.loss_rise)
+                ok = float(loss_new.item()) <= loss_limit
             if not cfg.reject or (ok and flips_new <= flips_cur):
                 accepted = True
                 break
@@ -429,8 +430,8 @@ def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, c
         from .relax import slim_relax_until
 
         relaxed, n_relax = slim_relax_until(Vn, F, u_tutte, cfg.eps, cfg.start_relax)
-        relaxed_metrics = distortion_metrics(Vn, F, relaxed)
-        if n_relax > 0 and relaxed_metrics["valid"]:
+        relaxed_metrics = distortion_metrics(Vn, F, relaxed) if n_relax > 0 else {"valid": False}
+        if relaxed_metrics["valid"]:
             u_tutte, start, tutte_metrics = relaxed, f"tutte+slim{n_relax}", relaxed_metrics
     dCi_np, A_np = local_frames(Vn, F)
     dCi = torch.as_tensor(dCi_np, dtype=torch.float64, device=dev)
