@@ -1,6 +1,8 @@
 # neuraluv: two commands do all the set-up on a fresh machine.
-#   make demo   virtual env + install + unwrap the built-in default chart
-#   make test   virtual env + install + the whole test suite (notebooks and the book included)
+#   make demo       virtual env + install + unwrap the built-in default chart
+#   make test       virtual env + install + the whole test suite: unit tests and doctests,
+#                   every notebook once under nbval, the book built from those runs and checked
+#   make test-fast  unit tests and doctests only (about a minute)
 PY      ?= python3
 VENV    ?= .venv
 BIN     := $(VENV)/bin
@@ -13,7 +15,7 @@ export PYVISTA_OFF_SCREEN ?= true
 # OpenBLAS' own threads fight torch's on 2 cores (a 256x256 eigh: 1 s vs 6 ms)
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: install demo test test-fast data book lab blender-env bench-quick acceptance atlas-acceptance clean
+.PHONY: install demo test test-fast test-notebooks book book-check data lab blender-env bench-quick acceptance atlas-acceptance clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -33,14 +35,25 @@ data: install
 
 test: install data
 	$(BIN)/python -m pytest -q
-	$(BIN)/python -m pytest -q --nbval-lax notebooks
+	$(MAKE) test-notebooks
+	$(MAKE) book-check
 
 test-fast: install
 	$(BIN)/python -m pytest -q -x
 
+# Every notebook once (nbval); their outputs go to the book's execution cache
+# (notebooks/conftest.py), so the book build below does not run them again.
+# MPLBACKEND is unset so the kernels' inline figures reach the outputs.
+test-notebooks: install data
+	env -u MPLBACKEND $(BIN)/python -m pytest -q --nbval-lax notebooks
+
 # The Jupyter Book (v1, builds offline); notebooks executed with a cache.
 book: install
 	$(BIN)/python book/build.py
+
+# Build the book and check it: a page with figures per notebook, the API pages, a Chromium screenshot.
+book-check: book
+	$(BIN)/python book/check.py
 
 # JupyterLab on the notebooks (as root add LAB_ARGS=--allow-root).
 lab: install

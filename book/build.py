@@ -107,6 +107,9 @@ def main(argv=None) -> int:
     else:
         out, src = BOOK, BOOK
         copies = sync_notebooks(NOTEBOOKS, BOOK / "notebooks")
+    # autosummary stubs are regenerated on every build; stale ones would be excluded by
+    # only_build_toc_files (they are not in _toc.yml when the build starts) and the API pages lost
+    shutil.rmtree(src / "_autosummary", ignore_errors=True)
     cache_dir = out / "_build" / ".jupyter_cache"
     if a.clean_cache:
         shutil.rmtree(cache_dir, ignore_errors=True)

@@ -3,7 +3,7 @@
     NEURALUV_DATA=/tmp/nuvdata nice -n 10 .venv/bin/python data_scripts/atlas_acceptance.py \
         [-o /tmp/atlas_acceptance] [--workers 2] [--preset test] [--preview-iters 20] [--n-generated 50]
 
-1. Atlases (via `neuraluv.sweep` on a dask LocalCluster, one subprocess per
+1. Atlases (via `neuraluv.atlas.sweep` on a dask LocalCluster, one subprocess per
    asset) every cached closed registry mesh (datasets.CLOSED), pyvista's bundled
    ant/airplane/nut, and the seeded generated-like set; every verdict is on the
    written OBJ read back: 100% coverage, 0 flips, 0 island overlaps, UVs in
@@ -32,7 +32,7 @@ def _write_inputs(root, n_generated):
     import trimesh
 
     from neuraluv import datasets
-    from neuraluv.generated import generated_asset
+    from neuraluv.datasets.generated import generated_asset
 
     groups = {"closed": [], "pyvista": [], "generated": []}
     for name in datasets.CLOSED:
@@ -61,7 +61,7 @@ def _write_inputs(root, n_generated):
 
 
 def _table(label, rows):
-    from neuraluv.sweep import summarize
+    from neuraluv.atlas.sweep import summarize
 
     s = summarize(rows, label)
     ok = [r for r in rows if r.get("ok")]
@@ -72,7 +72,7 @@ def _table(label, rows):
 
 
 def run_atlases(groups, out, args):
-    from neuraluv.sweep import sweep
+    from neuraluv.atlas.sweep import sweep
 
     kw = dict(preset=args.preset, preview_iters=args.preview_iters, resolution=1024, padding=4)
     all_rows = {}
@@ -122,7 +122,7 @@ def run_repair(out, args):
     from neuraluv import datasets
     from neuraluv.io import read_obj, write_obj
     from neuraluv.metrics import distortion_metrics
-    from neuraluv.uvrepair import face_dets, uv_charts
+    from neuraluv.atlas.uvrepair import face_dets, uv_charts
 
     if not (datasets.available("camel_b") and datasets.available("bob_tri")):
         print("repair: camel_b/bob_tri not cached, skipped")

@@ -3,7 +3,7 @@
     python data_scripts/make_generated.py [-n 50] [--seed 0] [-o DIR] [--format obj|ply|glb]
 
 Default folder: $NEURALUV_DATA/generated (never the repository). Each asset is
-a pure function of (index, seed) — see neuraluv.generated — and an
+a pure function of (index, seed) — see neuraluv.datasets.generated — and an
 index.json lists the defects applied to each.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 
 def main(argv=None):
     from neuraluv.datasets import data_dir
-    from neuraluv.generated import generated_set
+    from neuraluv.datasets.generated import generated_set
     from neuraluv.io import atomic_write
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -12,12 +12,10 @@ component by component.
 import json
 import sys
 
-import numpy as np
 import torch
 
 from neuraluv import datasets
 from neuraluv.solver import get_config, solve_chart
-from neuraluv.topology import split_components
 
 
 def main(argv):
@@ -25,9 +23,8 @@ def main(argv):
     over = json.loads(argv[2]) if len(argv) > 2 else {}
     seed = int(over.pop("seed", 0))  # the solver's first seed, not a config field
     torch.set_num_threads(1)
-    V, F = datasets.load(name)
-    for vi, fi in split_components(V, F):
-        r = solve_chart(V[vi], np.searchsorted(vi, F[fi]), get_config(preset, **over), seed=seed, device="cpu")
+    for V, F in datasets.load_charts(name):
+        r = solve_chart(V, F, get_config(preset, **over), seed=seed, device="cpu")
         t = r.trace
         n = len(t["esd"])
         m = {k: round(v, 4) if isinstance(v, float) else v for k, v in r.metrics.items()}

@@ -17,22 +17,19 @@ import platform
 import sys
 import time
 
-import numpy as np
 
 from neuraluv import datasets
 from neuraluv.baselines import run_baseline
-from neuraluv.repair import face_areas
+from neuraluv.meshfix import face_areas
 from neuraluv.solver import resolve_device, solve_chart
-from neuraluv.topology import split_components
 
 PAPER = {"camel": 4.14, "hand": 12.73, "bob": 4.39}
 TARGET = {"camel": 4.14, "hand": 13.5, "bob": 4.39}
 
 
 def charts(name):
-    V, F = datasets.load(name)
-    for i, (vi, fi) in enumerate(split_components(V, F)):
-        yield f"{name}[{i}]" if name == "bob" else name, V[vi], np.searchsorted(vi, F[fi])
+    for i, (V, F) in enumerate(datasets.load_charts(name)):
+        yield f"{name}[{i}]" if name == "bob" else name, V, F
 
 
 def main(argv=None):

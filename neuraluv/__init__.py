@@ -3,15 +3,51 @@
 The executable companion to *Continuous Neural Reparameterization as a Deep
 Geometric Prior for Robust Fixed-Chart UV Repair*. Plain arrays in and out:
 ``V (n,3)``, ``F (m,3)``, ``UV (n,2)``.
-"""
-from .errors import MeshLoadError, NeuralUVError, TopologyError
-from .io import load_mesh, read_obj, write_obj
-from .jacobian import jacobians, jacobians_torch, local_frames
-from .metrics import distortion_metrics, face_metrics, match_area
-from .repair import normalize_unit_box, repair_mesh
-from .solver import PRESETS, ChartResult, SolverConfig, get_config, solve_chart
-from .spectral import chart_features, laplacian, lbo_eigenfunctions
-from .topology import is_disk_like, split_components, topology_scan
-from .tutte import tutte
 
-__version__ = "0.1.0"
+Layers (each imports only the ones above it in this list):
+
+* the geometry core, flat and torch-free: :mod:`~neuraluv.errors`,
+  :mod:`~neuraluv.io`, :mod:`~neuraluv.meshfix`, :mod:`~neuraluv.topology`,
+  :mod:`~neuraluv.jacobian`, :mod:`~neuraluv.metrics`, :mod:`~neuraluv.spectral`,
+  :mod:`~neuraluv.tutte`, :mod:`~neuraluv.relax`, :mod:`~neuraluv.packing`,
+  :mod:`~neuraluv.plot`, :mod:`~neuraluv.check`, :mod:`~neuraluv.datasets`;
+* :mod:`neuraluv.solver`: the SIREN chart solver (torch);
+* :mod:`neuraluv.atlas`: unwrap, atlas construction, UV repair, sweeps;
+* :mod:`neuraluv.baselines`: libigl, BFF, xatlas, Blender, OptCuts;
+* :mod:`neuraluv.bench`: the paper's tables; :mod:`neuraluv.cli`: the command line.
+
+The names below are re-exported lazily: ``import neuraluv`` loads neither
+torch nor scipy.
+"""
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.2.0"
+
+#: name -> module that defines it (imported on first access).
+_EXPORTS = {
+    "NeuralUVError": "errors", "MeshLoadError": "errors", "TopologyError": "errors",
+    "load_mesh": "io", "read_obj": "io", "write_obj": "io",
+    "local_frames": "jacobian", "jacobians": "jacobian",
+    "distortion_metrics": "metrics", "face_metrics": "metrics", "match_area": "metrics",
+    "normalize_unit_box": "meshfix", "repair_mesh": "meshfix",
+    "chart_features": "spectral", "laplacian": "spectral", "lbo_eigenfunctions": "spectral",
+    "is_disk_like": "topology", "split_components": "topology", "topology_scan": "topology",
+    "tutte": "tutte",
+    "PRESETS": "solver.config", "SolverConfig": "solver.config", "get_config": "solver.config",
+    "ChartResult": "solver.result", "solve_chart": "solver.chart", "prepare_chart": "solver.chart",
+    "unwrap": "atlas.unwrap", "build_atlas": "atlas.build", "repair_uvs": "atlas.uvrepair",
+}
+
+__all__ = sorted(_EXPORTS) + ["__version__"]
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f"neuraluv.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module 'neuraluv' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

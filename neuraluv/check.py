@@ -2,7 +2,7 @@
 and which repair the atlas pipeline will apply.
 
 The counts come from :func:`neuraluv.topology.topology_scan` (on the raw
-arrays) and :func:`neuraluv.repair.repair_mesh` (with welding, as the atlas
+arrays) and :func:`neuraluv.meshfix.repair_mesh` (with welding, as the atlas
 pipeline runs it); nothing is modified.
 """
 from __future__ import annotations
@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .io import check_mesh_arrays
-from .repair import repair_mesh
-from .topology import is_disk_like, topology_scan
+from neuraluv.io import check_mesh_arrays
+from neuraluv.meshfix import repair_mesh
+from neuraluv.topology import is_disk_like, topology_scan
 
 __all__ = ["Finding", "CheckReport", "check_mesh", "format_report"]
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["local_frames", "jacobians", "jacobians_torch"]
+__all__ = ["local_frames", "jacobians", "signed_areas_2d"]
 
 
 def local_frames(V, F):
@@ -89,29 +89,25 @@ def jacobians(UV, F, dC_inv):
     return dU @ dC_inv
 
 
-def jacobians_torch(UV, F, dC_inv):
-    """Per-face Jacobians of a UV map (torch, differentiable).
+def signed_areas_2d(UV, F):
+    """Signed areas of the UV triangles (positive: counter-clockwise).
 
     Parameters
     ----------
-    UV : (n,2) torch tensor
-    F : (m,3) torch long tensor
-    dC_inv : (m,2,2) torch tensor
+    UV : (n,2) float array
+    F : (m,3) int array
 
     Returns
     -------
-    J : (m,2,2) torch tensor
+    area : (m,) float array
 
     Examples
     --------
-    >>> import torch
-    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
-    >>> dCi, _ = local_frames(V, F)
-    >>> J = jacobians_torch(torch.tensor(3 * V[:, :2]), torch.tensor(F), torch.tensor(dCi))
-    >>> J[0].tolist()
-    [[3.0, 0.0], [0.0, 3.0]]
+    >>> signed_areas_2d(np.array([[0., 0], [1, 0], [0, 1]]), np.array([[0, 1, 2], [0, 2, 1]])).tolist()
+    [0.5, -0.5]
     """
-    import torch
-
-    dU = torch.stack([UV[F[:, 1]] - UV[F[:, 0]], UV[F[:, 2]] - UV[F[:, 0]]], dim=-1)
-    return dU @ dC_inv
+    UV = np.asarray(UV, float)
+    F = np.asarray(F)
+    a = UV[F[:, 1]] - UV[F[:, 0]]
+    b = UV[F[:, 2]] - UV[F[:, 0]]
+    return 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])

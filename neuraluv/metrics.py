@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jacobian import jacobians, local_frames
+from neuraluv.jacobian import jacobians, local_frames
 
 __all__ = ["face_metrics", "distortion_metrics", "metrics_from_jacobians", "match_area", "is_valid", "corner_jacobians", "face_dets"]
 

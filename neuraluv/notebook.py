@@ -122,7 +122,7 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
     >>> name, V.shape, F.shape
     ('disk', (19, 3), (24, 3))
     """
-    from . import datasets
+    from neuraluv import datasets
 
     def _quick():
         if quick_kwargs:

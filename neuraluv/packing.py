@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from neuraluv.jacobian import signed_areas_2d
+
 __all__ = ["PackResult", "shelf_pack", "rotate_to_min_box", "xatlas_pack"]
 
 
@@ -54,11 +56,7 @@ def _layout(sizes, gap, width):
 
 
 def _poly_area(uv, F):
-    if F is None:
-        return 0.0
-    a = uv[F[:, 1]] - uv[F[:, 0]]
-    b = uv[F[:, 2]] - uv[F[:, 0]]
-    return float(0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum())
+    return 0.0 if F is None else float(np.abs(signed_areas_2d(uv, F)).sum())
 
 
 def shelf_pack(uvs, faces=None, *, padding=2.0, resolution=1024, margin=None):

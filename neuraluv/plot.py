@@ -13,7 +13,7 @@ import numpy as np
 __all__ = [
     "checkerboard_texture", "plot_uv_layout", "render_surface", "render_checkerboard",
     "plot_checkerboard_transfer", "plot_face_heatmap", "plot_trace",
-    "save_uv_layout", "save_checkerboard_transfer",
+    "save_uv_layout", "save_checkerboard_transfer", "plot_alignment_curves", "plot_routes", "ROUTE_COLORS",
 ]
 
 
@@ -37,10 +37,10 @@ def checkerboard_texture(n_checks=16, res=512):
 
 def _flipped(V, F, UV, FUV=None):
     if V is None:  # no 3D positions: the UV winding decides
-        a = UV[F[:, 1]] - UV[F[:, 0]]
-        b = UV[F[:, 2]] - UV[F[:, 0]]
-        return (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) <= 0
-    from .metrics import face_dets
+        from neuraluv.jacobian import signed_areas_2d
+
+        return signed_areas_2d(UV, F if FUV is None else FUV) <= 0
+    from neuraluv.metrics import face_dets
 
     return ~(face_dets(V, F, UV, FUV) > 0)
 
@@ -206,7 +206,7 @@ def plot_trace(trace, axes=None, *, label=None):
 
 
 def _save(fig, path):
-    from .io import atomic_write
+    from neuraluv.io import atomic_write
 
     with atomic_write(path, "wb") as fh:
         fig.savefig(fh, dpi=110, format="png")
@@ -224,3 +224,87 @@ def save_uv_layout(path, V, F, UV, FUV=None):
 def save_checkerboard_transfer(path, V, F, UV, FUV=None):
     """Write the checkerboard-transfer PNG (3D render beside the UV layout)."""
     _save(plot_checkerboard_transfer(V, F, UV, FUV), path)
+
+
+def plot_alignment_curves(curves, ax=None, *, title=None):
+    """Alignment curves ``s_r`` against ``r``.
+
+    Parameters
+    ----------
+    curves : dict label -> (R,) array
+    ax : matplotlib axes, optional
+    title : str, optional
+
+    Returns
+    -------
+    ax
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5.5, 3.8))
+    for label, c in curves.items():
+        c = np.asarray(c)
+        ax.plot(np.arange(1, len(c) + 1), c, marker="o", ms=3, label=label)
+    R = max(len(np.asarray(c)) for c in curves.values()) if curves else 16
+    ax.set_xlabel("rank r")
+    ax.set_ylabel("s_r = ||Q_r^T Psi_r||_F^2 / r")
+    ax.set_ylim(0, 1.02)
+    ax.set_xticks(range(1, R + 1, max(1, R // 8)))
+    ax.grid(alpha=0.3)
+    if title:
+        ax.set_title(title)
+    ax.legend(fontsize=8)
+    return ax
+
+
+#: Figure 8 colours: neural charts blue, fallbacks red.
+ROUTE_COLORS = {"neural": (0.16, 0.40, 0.80, 1.0), "fallback": (0.86, 0.18, 0.15, 1.0)}
+
+
+def plot_routes(V, F, UV, FUV, face_route, *, islands=None, flips=None, zoom=True, view=None):
+    """Figure 8: the surface and the packed atlas coloured by route.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array
+    face_route : (m,) int array, 1 for neural-routed faces, 0 for fallback.
+    islands, flips : int, optional
+        Counts printed in the atlas panel's title.
+    zoom : bool
+        Add a third panel zoomed on the fallback islands (when there are any).
+    view : optional camera (see :func:`render_surface`)
+
+    Returns
+    -------
+    fig : matplotlib Figure
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    face_route = np.asarray(face_route)
+    fb = face_route == 0
+    ncol = 3 if (zoom and fb.any()) else 2
+    fig, axes = plt.subplots(1, ncol, figsize=(4.2 * ncol, 4.2))
+    cmap = ListedColormap([ROUTE_COLORS["fallback"][:3], ROUTE_COLORS["neural"][:3]])
+    img = render_surface(V, F, scalars=face_route.astype(float), cmap=cmap, clim=(0, 1), view=view)
+    axes[0].imshow(img)
+    axes[0].axis("off")
+    share = float(face_route.mean()) if len(face_route) else 0.0
+    axes[0].set_title(f"(a) routes: neural {100 * share:.1f}% / fallback {100 * (1 - share):.1f}% of faces", fontsize=9)
+    fc = np.array([ROUTE_COLORS["neural"] if r else ROUTE_COLORS["fallback"] for r in face_route])
+    counts = ", ".join(s for s in (f"{islands} islands" if islands is not None else "",
+                                   f"{flips} flips" if flips is not None else "") if s)
+    plot_uv_layout(V, F, UV, ax=axes[1], FUV=FUV, face_colors=fc, title="(b) atlas" + (f": {counts}" if counts else ""))
+    if ncol == 3:
+        plot_uv_layout(V, F, UV, ax=axes[2], FUV=FUV, face_colors=fc, show_box=False, title="(c) zoom on fallback islands")
+        uvf = UV[FUV[fb]].reshape(-1, 2)
+        lo, hi = uvf.min(0), uvf.max(0)
+        c, h = 0.5 * (lo + hi), 0.5 * max((hi - lo).max(), 0.02)
+        axes[2].set_xlim(c[0] - h, c[0] + h)
+        axes[2].set_ylim(c[1] - h, c[1] + h)
+    fig.tight_layout()
+    return fig

@@ -97,7 +97,7 @@ def slim_relax_until(V, F, UV0, min_det, max_iterations=100):
     """
     import igl
 
-    from .metrics import face_dets
+    from neuraluv.metrics import face_dets
 
     UV = np.ascontiguousarray(np.asarray(UV0, float)[:, :2])
     if face_dets(V, F, UV).min() >= min_det:

@@ -11,11 +11,33 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
-__all__ = ["laplacian", "lbo_eigenfunctions", "fix_signs", "chart_features", "FEATURE_STD"]
+__all__ = ["cotangent_laplacian", "laplacian", "lbo_eigenfunctions", "fix_signs", "chart_features", "FEATURE_STD"]
 
 #: Standard deviation every feature column is scaled to: that of U(-1, 1), the
 #: input range SIREN's initialisation assumes.
 FEATURE_STD = 1.0 / np.sqrt(3.0)
+
+
+def cotangent_laplacian(V, F):
+    """libigl's cotangent matrix ``L`` (symmetric, negative semi-definite, rows sum to 0).
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+
+    Returns
+    -------
+    L : (n,n) scipy sparse CSC matrix
+
+    Notes
+    -----
+    ``L_ij = ½ (cot α_ij + cot β_ij)`` for an edge ``ij`` with opposite angles
+    ``α_ij, β_ij``; ``L_ii = −Σ_j L_ij`` (Pinkall & Polthier 1993).
+    """
+    import igl
+
+    return sp.csc_matrix(igl.cotmatrix(np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64)))
 
 
 def laplacian(V, F):
@@ -45,9 +67,8 @@ def laplacian(V, F):
 
     V = np.ascontiguousarray(V, dtype=np.float64)
     F = np.ascontiguousarray(F, dtype=np.int64)
-    L = igl.cotmatrix(V, F)
     M = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI)
-    return sp.csc_matrix(L), sp.csc_matrix(M)
+    return cotangent_laplacian(V, F), sp.csc_matrix(M)
 
 
 def fix_signs(phi, V, M=None):

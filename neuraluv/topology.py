@@ -12,7 +12,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["TopologyReport", "topology_scan", "is_disk_like", "vertex_components", "split_components", "edge_face_counts"]
+__all__ = [
+    "TopologyReport", "topology_scan", "is_disk_like", "vertex_components", "split_components", "components",
+    "face_components", "faces_sharing", "edge_face_counts", "submesh", "boundary_loop",
+]
 
 
 def _undirected_edges(F):
@@ -57,6 +60,143 @@ def vertex_components(n, F):
     E, _ = _undirected_edges(F)
     A = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
     return connected_components(A, directed=False)
+
+
+def submesh(F, fidx):
+    """The vertices and re-indexed faces of the sub-mesh ``F[fidx]``.
+
+    Parameters
+    ----------
+    F : (m,3) int array
+    fidx : (k,) int array or boolean mask
+        Faces of the sub-mesh.
+
+    Returns
+    -------
+    vidx : (n',) int array
+        Sorted vertices used by ``F[fidx]`` (the sub-mesh's positions are ``V[vidx]``).
+    Fs : (k,3) int array
+        ``F[fidx]`` re-indexed into ``vidx``.
+
+    Examples
+    --------
+    >>> vidx, Fs = submesh(np.array([[0, 1, 2], [2, 5, 7]]), [1])
+    >>> vidx.tolist(), Fs.tolist()
+    ([2, 5, 7], [[0, 1, 2]])
+    """
+    Fs = np.asarray(F, np.int64)[fidx]
+    vidx = np.unique(Fs)
+    return vidx, np.searchsorted(vidx, Fs)
+
+
+def faces_sharing(keys, face_of_key, m):
+    """Label faces connected through shared keys (connected components of faces).
+
+    Parameters
+    ----------
+    keys : (k,) or (k,d) int array
+        One key per row (an edge, a ``vt`` index, ...); rows with equal keys join their faces.
+    face_of_key : (k,) int array
+        The face each row belongs to.
+    m : int
+        Number of faces.
+
+    Returns
+    -------
+    n : int
+    labels : (m,) int array
+
+    Examples
+    --------
+    >>> faces_sharing(np.array([5, 7, 5, 9]), np.array([0, 1, 2, 3]), 4)[1].tolist()
+    [0, 1, 0, 2]
+    """
+    if m == 0:
+        return 0, np.zeros(0, np.int64)
+    keys = np.asarray(keys)
+    _, inv = np.unique(keys.reshape(len(keys), -1), axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    A = sp.coo_matrix((np.ones(len(inv)), (np.asarray(face_of_key), inv)), shape=(m, inv.max() + 1)).tocsr()
+    return connected_components(A @ A.T, directed=False)
+
+
+def face_components(F):
+    """Label faces by connectivity through shared edges (manifold or not).
+
+    Unlike :func:`vertex_components`, two faces touching at a single vertex
+    (a bow-tie) are in different components.
+
+    Returns
+    -------
+    n : int
+    labels : (m,) int array
+
+    Examples
+    --------
+    >>> face_components(np.array([[0, 1, 2], [0, 3, 4], [1, 2, 5]]))[1].tolist()
+    [0, 1, 0]
+    """
+    F = np.asarray(F, np.int64)
+    _, Es = _undirected_edges(F)
+    return faces_sharing(Es, np.tile(np.arange(len(F)), 3), len(F))
+
+
+def boundary_loop(F, *, oriented=False):
+    """The longest boundary loop of a manifold mesh, ordered (libigl).
+
+    Parameters
+    ----------
+    F : (m,3) int array
+    oriented : bool
+        Order the loop so the faces lie on its left (each ``(bnd[i], bnd[i+1])``
+        is a directed edge of a face: counter-clockwise for a disk whose map
+        keeps its orientation).
+
+    Returns
+    -------
+    bnd : (b,) int array
+        Vertices of the loop in order (empty for a closed mesh).
+
+    Examples
+    --------
+    >>> F = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> boundary_loop(F).tolist(), boundary_loop(F[:, ::-1], oriented=True).tolist()
+    ([0, 1, 2, 3], [0, 3, 2, 1])
+    """
+    import igl
+
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    bnd = np.asarray(igl.boundary_loop(F), np.int64)
+    if oriented and len(bnd) >= 2:
+        n = int(F.max()) + 1
+        directed = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+        if not np.isin(bnd[0] * n + bnd[1], directed[:, 0] * n + directed[:, 1]):
+            bnd = bnd[::-1].copy()
+    return bnd
+
+
+def components(V, F):
+    """The connected components of a mesh as stand-alone meshes.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+
+    Returns
+    -------
+    list of (vidx, fidx, Fc)
+        As :func:`split_components`, with ``Fc`` the component's faces
+        re-indexed into ``vidx`` (the component mesh is ``(V[vidx], Fc)``).
+
+    Examples
+    --------
+    >>> V = np.zeros((6, 3)); F = np.array([[0, 1, 2], [3, 4, 5]])
+    >>> [Fc.tolist() for _, _, Fc in components(V, F)]
+    [[[0, 1, 2]], [[0, 1, 2]]]
+    """
+    F = np.asarray(F, np.int64)
+    return [(vi, fi, np.searchsorted(vi, F[fi])) for vi, fi in split_components(V, F)]
 
 
 def split_components(V, F):

@@ -11,37 +11,12 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
-from .errors import TopologyError
-from .repair import face_areas
+from neuraluv.errors import TopologyError
+from neuraluv.jacobian import jacobians, local_frames
+from neuraluv.meshfix import face_areas
+from neuraluv.topology import boundary_loop
 
-__all__ = ["boundary_loop", "circle_boundary", "tutte", "signed_areas_2d"]
-
-
-def signed_areas_2d(UV, F):
-    """Signed areas of the UV triangles (positive: counter-clockwise).
-
-    Examples
-    --------
-    >>> signed_areas_2d(np.array([[0., 0], [1, 0], [0, 1]]), np.array([[0, 1, 2], [0, 2, 1]])).tolist()
-    [0.5, -0.5]
-    """
-    UV = np.asarray(UV, float)
-    F = np.asarray(F)
-    a = UV[F[:, 1]] - UV[F[:, 0]]
-    b = UV[F[:, 2]] - UV[F[:, 0]]
-    return 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
-
-
-def boundary_loop(F):
-    """The longest ordered boundary loop of a manifold mesh (libigl).
-
-    Returns
-    -------
-    bnd : (b,) int array
-    """
-    import igl
-
-    return np.asarray(igl.boundary_loop(np.ascontiguousarray(F, dtype=np.int64)), np.int64)
+__all__ = ["circle_boundary", "tutte"]
 
 
 def circle_boundary(V, bnd, radius=1.0):
@@ -125,9 +100,9 @@ def tutte(V, F, *, weights="uniform", bnd=None):
         W.data[:] = 1.0
         L = (W - sp.diags(np.asarray(W.sum(axis=1)).ravel())).tocsr()
     elif weights == "cotangent":
-        from .spectral import laplacian
+        from neuraluv.spectral import cotangent_laplacian
 
-        L = laplacian(V, F)[0].tocsr()
+        L = cotangent_laplacian(V, F).tocsr()
     else:
         raise ValueError(f"weights must be 'uniform' or 'cotangent', got {weights!r}")
     interior = np.setdiff1d(np.arange(n), bnd)
@@ -138,8 +113,6 @@ def tutte(V, F, *, weights="uniform", bnd=None):
         rhs = -(L[interior][:, bnd] @ bc)
         UV[interior] = scipy.sparse.linalg.spsolve(Lii, rhs).reshape(-1, 2)
     # orientation: make the map orientation-preserving w.r.t. F's winding
-    from .jacobian import jacobians, local_frames
-
     dC_inv, A = local_frames(V, F)
     if np.sum(A * np.linalg.det(jacobians(UV, F, dC_inv))) < 0:
         UV[:, 1] *= -1

@@ -22,3 +22,10 @@ def tri():
     V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
     F = np.array([[0, 1, 2]])
     return V, F
+
+
+def write_mesh(path, V, F):
+    """Write ``(V, F)`` with trimesh in the format of ``path``'s extension (test input files)."""
+    import trimesh
+
+    trimesh.Trimesh(V, F, process=False).export(path)

@@ -12,7 +12,7 @@ from neuraluv.atlas import (
     self_overlap, validate_atlas, write_atlas,
 )
 from neuraluv.datasets import disk, sphere, spherical_cap
-from neuraluv.generated import add_nonmanifold, flip_windings, generated_asset, unweld
+from neuraluv.datasets.generated import add_nonmanifold, flip_windings, generated_asset, unweld
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver import get_config
 from neuraluv.topology import is_disk_like, topology_scan
@@ -193,3 +193,26 @@ def test_slivers_are_removed_and_counted():
     assert info["sliver_faces"] == 1 and len(Fr) == len(F)
     _, _, _, info = prepare_mesh(V2, F2, min_height=0)
     assert info["sliver_faces"] == 0
+
+
+def test_repack_changes_only_the_placement(tmp_path):
+    """Repacking (another packer, another padding) keeps every island's shape and its validity."""
+    from neuraluv.atlas import repack, uv_islands
+
+    res = build_atlas(*sphere(1), **FAST)
+    again = repack(res, "xatlas", padding=8)
+    assert again.info["packer"] == "xatlas" and again.info["padding"] == 8
+    _readback_ok(again, tmp_path / "repacked.obj")
+    assert len(again.charts) == len(res.charts) and again.charts is res.charts  # no re-solve
+    n0, lab0 = uv_islands(res.FUV)
+    n1, lab1 = uv_islands(again.FUV)
+    assert n0 == n1
+    # each island moved rigidly and was scaled uniformly: its edge-length ratios are unchanged
+    for i in range(n0):
+        f0 = np.flatnonzero(lab0 == i)
+        j = lab1[f0[0]]
+        assert np.array_equal(np.flatnonzero(lab1 == j), f0)
+        e0 = np.linalg.norm(np.diff(res.UV[res.FUV[f0]], axis=1), axis=2).ravel()
+        e1 = np.linalg.norm(np.diff(again.UV[again.FUV[f0]], axis=1), axis=2).ravel()
+        r = e1 / np.maximum(e0, 1e-12)
+        assert np.ptp(r[e0 > 1e-4]) < 1e-3 * r.mean()

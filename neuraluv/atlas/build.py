@@ -1,0 +1,268 @@
+"""Atlas steps 3–5 in one call: :func:`build_atlas` (repair → candidates → routing → packing → validation).
+
+The routed-face split is the paper's Table 8 quantity (52.1% neural /
+47.9% fallback on Amara); :class:`AtlasResult` carries it with the UVs.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from neuraluv import __version__
+from neuraluv.atlas.candidates import chart_candidates
+from neuraluv.atlas.prepare import prepare_mesh
+from neuraluv.atlas.routing import route_chart
+from neuraluv.atlas.validate import validate_atlas
+from neuraluv.errors import NeuralUVError
+from neuraluv.io import check_mesh_arrays, jsonable
+from neuraluv.meshfix import normalize_unit_box
+from neuraluv.packing import rotate_to_min_box, shelf_pack, xatlas_pack
+from neuraluv.solver.config import get_config
+from neuraluv.solver.device import torch_threads
+from neuraluv.topology import topology_scan
+
+__all__ = ["AtlasResult", "build_atlas", "repack"]
+
+
+@dataclass
+class AtlasResult:
+    """A packed atlas of a whole mesh.
+
+    Attributes
+    ----------
+    V : (n,3) float array, repaired vertices in the input's coordinates.
+    F : (m,3) int array, repaired faces (the coverage denominator).
+    UV : (p,2) float array in ``[0,1]²``.
+    FUV : (m,3) int array, per-corner indices into ``UV``.
+    charts : list of AtlasChart.
+    face_chart : (m,) int array, chart of each face.
+    face_route : (m,) int array, 1 for neural-routed faces, 0 for fallback.
+    validation : dict from :func:`validate_atlas` (in memory).
+    info : dict, input counts, repair, packing, timings.
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    UV: np.ndarray
+    FUV: np.ndarray
+    charts: list
+    face_chart: np.ndarray
+    face_route: np.ndarray
+    validation: dict
+    info: dict
+
+    @property
+    def valid(self):
+        return bool(self.validation.get("valid", False))
+
+    def totals(self):
+        """Table 8 quantities: coverage, routed face shares, flips, overlaps."""
+        m = len(self.F)
+        nf = int(self.face_route.sum())
+        charts = self.charts
+        reasons = {}
+        for c in charts:
+            if c.route == "fallback":
+                key = c.reason.split(":")[0].split("(")[0].strip() or "unspecified"
+                reasons[key] = reasons.get(key, 0) + len(c.faces)
+        v = self.validation
+        return {
+            "input_faces": self.info["input_faces"],
+            "repaired_faces": m,
+            "covered_faces": int(v.get("covered_faces", 0)),
+            "coverage": v.get("covered_faces", 0) / m if m else 0.0,
+            "neural_faces": nf,
+            "fallback_faces": m - nf,
+            "neural_share": nf / m if m else 0.0,
+            "fallback_share": (m - nf) / m if m else 0.0,
+            "charts": len(charts),
+            "neural_charts": sum(c.route == "neural" for c in charts),
+            "fallback_charts": sum(c.route != "neural" for c in charts),
+            "islands": int(v.get("islands", 0)),
+            "flips": int(v.get("flips", -1)),
+            "overlapping_pairs": int(v.get("overlapping_pairs", -1)),
+            "self_overlapping_islands": int(v.get("self_overlapping_islands", -1)),
+            "uv_in_unit_square": bool(v.get("uv_in_unit_square", False)),
+            "min_gap_texels": v.get("min_gap_texels"),
+            "utilisation": self.info.get("utilisation"),
+            "fallback_faces_by_reason": reasons,
+            "valid": self.valid,
+            "time": self.info.get("time"),
+        }
+
+    def report(self):
+        """The JSON report (per chart: route, reason, metrics, time; totals)."""
+        return jsonable({
+            "neuraluv": __version__,
+            "info": self.info,
+            "totals": self.totals(),
+            "validation": self.validation,
+            "charts": [c.summary(i) for i, c in enumerate(self.charts)],
+        })
+
+
+def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="shelf", seed=0, device="cpu",
+                preview_iters=None, min_neural_faces=3, max_esd=1e3, max_cost=4.0, time_budget=None,
+                threads=None, progress=False, min_height=1e-6, **overrides):
+    """Build a validated UV atlas of a whole (possibly messy) mesh.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    preset : str or SolverConfig
+        Solver preset for the retry; the preview uses the same preset with
+        ``preview_iters`` iterations and no seed retries.
+    resolution : int
+        Target texture resolution the padding refers to.
+    padding : float
+        Minimum gap between islands (and to the border) in texels.
+    packer : ``"shelf"`` (the paper's area-scaled shelf packer) or ``"xatlas"``.
+    seed : int
+    device : str
+    preview_iters : int, optional
+        Iterations of the preview pass (default: a fifth of the preset's, at least 20).
+    min_neural_faces : int
+        Candidates below this face count skip the network (exact unfold).
+    max_esd : float
+        Preview quality threshold (above it the chart is retried).
+    max_cost : float
+        xatlas charting cost for seams.
+    min_height : float
+        Sliver threshold of :func:`prepare_mesh` (relative to the diagonal).
+    time_budget : float, optional
+        Seconds after which no new neural solve starts (remaining charts become
+        marked fallbacks).
+    threads : int, optional
+        torch CPU threads during the solves (restored afterwards).
+    progress : bool
+    **overrides
+        SolverConfig overrides applied to both passes.
+
+    Returns
+    -------
+    AtlasResult
+
+    Raises
+    ------
+    NeuralUVError
+        When nothing usable is left after repair (all faces degenerate).
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import sphere
+    >>> res = build_atlas(*sphere(1), "test", resolution=256, padding=2)
+    >>> res.valid, res.totals()["coverage"], res.totals()["flips"]
+    (True, 1.0, 0)
+    """
+    t0 = time.perf_counter()
+    V, F = check_mesh_arrays(V, F)
+    Vin = V
+    Vn = normalize_unit_box(V)[0]
+    Vr, Fr, vmap, rinfo = prepare_mesh(Vn, F, min_height=min_height)
+    if len(Fr) == 0:
+        raise NeuralUVError("no usable faces: every face is degenerate (zero area or repeated corners)")
+    topo = topology_scan(Vr, Fr)
+    cfg = get_config(preset, **overrides)
+    pre_it = preview_iters if preview_iters is not None else max(20, cfg.iterations // 5)
+    preview = get_config(cfg, iterations=min(pre_it, cfg.iterations), retries=0, early_stop=True)
+    retry = get_config(cfg, retries=max(cfg.retries, 1), lr=cfg.lr * 0.5)
+    t_rep = time.perf_counter()
+    cands = chart_candidates(Vr, Fr, max_cost=max_cost)
+    t_cand = time.perf_counter()
+    deadline = None if time_budget is None else t0 + float(time_budget)
+    charts = []
+    it = cands
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = it = tqdm(cands, desc="charts", leave=False, dynamic_ncols=True)
+    with torch_threads(threads):
+        for k, (fidx, src) in enumerate(it):
+            charts.append(route_chart(Vr, Fr, fidx, preview, retry, seed=seed, device=device,
+                                      min_neural_faces=min_neural_faces, max_esd=max_esd, source=src, deadline=deadline))
+    if bar is not None:
+        bar.close()
+    t_route = time.perf_counter()
+    Vout = Vin[vmap]
+    UV, FUV, face_chart, face_route, packed = _pack(charts, len(Fr), packer, padding, resolution)
+    t_pack = time.perf_counter()
+    validation = validate_atlas(Vout, Fr, UV, FUV, padding=padding, resolution=resolution)
+    info = {
+        "input_vertices": int(len(Vin)), "input_faces": int(len(F)),
+        "repaired_vertices": int(len(Vr)), "repaired_faces": int(len(Fr)),
+        "repair": rinfo, "topology": topo.as_dict(),
+        "preset": preset if isinstance(preset, str) else "custom",
+        "preview": {"iterations": preview.iterations, "retries": preview.retries},
+        "retry": {"iterations": retry.iterations, "retries": retry.retries, "lr": retry.lr},
+        "min_neural_faces": min_neural_faces, "max_esd": max_esd, "max_cost": max_cost, "time_budget": time_budget,
+        "packer": packer, "resolution": resolution, "padding": padding,
+        "utilisation": packed.utilisation, "pack_scale": packed.scale,
+        "timings": {"repair": t_rep - t0, "candidates": t_cand - t_rep, "routing": t_route - t_cand,
+                    "packing": t_pack - t_route, "validation": time.perf_counter() - t_pack},
+        "time": time.perf_counter() - t0, "device": str(device), "seed": seed,
+    }
+    return AtlasResult(V=Vout, F=Fr, UV=UV, FUV=FUV, charts=charts, face_chart=face_chart, face_route=face_route,
+                       validation=validation, info=info)
+
+
+def _pack(charts, m, packer, padding, resolution):
+    """Pack the charts' islands and assemble per-corner UVs for ``m`` faces."""
+    islands = [isl for c in charts for isl in c.islands]
+    uvs = [rotate_to_min_box(isl[3]) for isl in islands]
+    fl = [isl[2] for isl in islands]
+    if packer == "shelf":
+        packed = shelf_pack(uvs, fl, padding=padding, resolution=resolution)
+    elif packer == "xatlas":
+        packed = xatlas_pack(uvs, fl, padding=padding, resolution=resolution)
+    else:
+        raise NeuralUVError(f"unknown packer {packer!r}: use 'shelf' or 'xatlas'")
+    FUV = -np.ones((m, 3), np.int64)
+    UVs, off = [], 0
+    for isl, uv in zip(islands, packed.uvs):
+        FUV[isl[0]] = isl[2] + off
+        UVs.append(uv)
+        off += len(uv)
+    # float32-representable values, so OBJ and GLB (float32 TEXCOORD_0) carry the
+    # same layout and the in-memory validation speaks for both files
+    UV = np.clip(np.vstack(UVs), 0.0, 1.0).astype(np.float32).astype(np.float64)
+    face_chart = np.zeros(m, np.int64)
+    face_route = np.zeros(m, np.int8)
+    for i, c in enumerate(charts):
+        face_chart[c.faces] = i
+        face_route[c.faces] = c.route == "neural"
+    return UV, FUV, face_chart, face_route, packed
+
+
+def repack(res, packer="shelf", *, padding=None, resolution=None):
+    """Re-pack an atlas's charts with another packer or padding, without re-solving.
+
+    Parameters
+    ----------
+    res : AtlasResult
+    packer : ``"shelf"`` or ``"xatlas"``
+    padding, resolution : optional, default the atlas's own.
+
+    Returns
+    -------
+    AtlasResult (the same charts, new ``UV``/``FUV``, validation and packing info)
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import sphere
+    >>> res = build_atlas(*sphere(1), "test", resolution=256, padding=2)
+    >>> repack(res, "xatlas").validation["valid"]
+    True
+    """
+    from dataclasses import replace
+
+    padding = res.info["padding"] if padding is None else padding
+    resolution = res.info["resolution"] if resolution is None else resolution
+    UV, FUV, fc, fr, packed = _pack(res.charts, len(res.F), packer, padding, resolution)
+    info = dict(res.info, packer=packer, padding=padding, resolution=resolution,
+                utilisation=packed.utilisation, pack_scale=packed.scale)
+    return replace(res, UV=UV, FUV=FUV, face_chart=fc, face_route=fr, info=info,
+                   validation=validate_atlas(res.V, res.F, UV, FUV, padding=padding, resolution=resolution))

@@ -1,0 +1,69 @@
+"""What the benchmark runners share: method and mesh names, labels, loading, the neural options, result rows."""
+from __future__ import annotations
+
+import numpy as np
+
+from neuraluv import datasets
+from neuraluv.errors import NeuralUVError
+
+__all__ = ["METHODS", "LABELS", "RECUT", "DEFAULT_MESHES", "QUICK_MESHES", "QUICK_SIZES", "QUICK_METHODS", "MESH_LABELS",
+           "load_meshes", "neural_options", "result_row"]
+
+#: Table 2's methods, in the paper's order (OptCuts last: it recuts).
+METHODS = ["lscm", "arap", "slim-1k", "bff", "neural", "optcuts"]
+#: Display names.
+LABELS = {"harmonic": "Harmonic", "lscm": "LSCM", "arap": "ARAP", "slim-20": "SLIM-20", "slim-1k": "SLIM-1k",
+          "bff": "BFF", "neural": "Ours", "optcuts": "OptCuts (re-cut)", "xatlas": "xatlas (re-cut)",
+          "blender-smart": "Blender Smart UV", "blender-angle": "Blender Angle Based",
+          "blender-conformal": "Blender Conformal", "blender-minstretch": "Blender Min. Stretch"}
+#: Methods that cut their own seams (not fixed-chart solvers).
+RECUT = {"optcuts", "xatlas", "blender-smart"}
+DEFAULT_MESHES = ["hand", "bob", "camel"]
+#: Procedural stand-ins for quick runs: a fingered chart and a 3-component input.
+QUICK_MESHES = ["glove", "components"]
+#: Smaller procedural sizes for quick runs.
+QUICK_SIZES = {"glove": {"res": 2}, "components": {"n_rings": 4}, "cap": {"n_rings": 5}, "saddle": {"n_rings": 5},
+               "bumpy": {"n_rings": 5}, "disk": {"n_rings": 5}}
+#: Table 2's methods under ``quick``: SLIM-20 stands in for SLIM-1k.
+QUICK_METHODS = ["lscm", "arap", "slim-20", "bff", "neural", "optcuts"]
+MESH_LABELS = {"hand": "Hand", "bob": "Bob", "camel": "Camel"}
+
+
+def load_meshes(names, quick=False):
+    """Load meshes by name; returns ``(loaded, missing)``.
+
+    ``loaded`` is a list of ``(name, V, F)``; ``missing`` a list of
+    ``(name, reason)`` for meshes that are not cached (never raises for that).
+    Under ``quick``, procedural meshes are built at the small
+    :data:`QUICK_SIZES`.
+    """
+    loaded, missing = [], []
+    for n in names:
+        try:
+            if quick and n in QUICK_SIZES:
+                V, F = datasets.procedural(n, **QUICK_SIZES[n])
+            else:
+                V, F = datasets.load(n)
+        except NeuralUVError as exc:
+            missing.append((n, str(exc)))
+            continue
+        loaded.append((n, np.asarray(V, float), np.asarray(F, np.int64)))
+    return loaded, missing
+
+
+def neural_options(preset, quick, seed=0, device="auto", **overrides):
+    """Keyword arguments for ``run_baseline("neural", ...)`` and the resume key's config."""
+    preset = preset or ("test" if quick else "fast")
+    kw = {"preset": preset, "seed": int(seed), "device": device, **overrides}
+    return kw
+
+
+def result_row(res):
+    """The numbers of a :class:`~neuraluv.baselines.BaselineResult` as a flat dict."""
+    m = res.metrics
+    row = {k: m.get(k) for k in ("esd", "conformal", "area", "flips", "flip_percent", "min_det", "n_faces", "valid")}
+    row.update({"status": res.status, "reason": res.reason, "time": float(res.time),
+                "attempts": getattr(res, "attempts", 1), "stop": getattr(res, "stop", "")})
+    return row
+
+

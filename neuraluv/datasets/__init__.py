@@ -1,0 +1,20 @@
+"""Data: procedural charts, the registry of real meshes, generated messy assets.
+
+=================  ==========================================================
+``procedural``     charts generated in code (disk, cap, saddle, glove, ...)
+``registry``       real meshes by URL + sha256, fetch/import, the compact charts
+``generated``      messy generated-like assets (holes, fragments, slivers, ...)
+=================  ==========================================================
+
+Real meshes are never committed; they are cached under ``$NEURALUV_DATA``.
+"""
+from neuraluv.datasets.procedural import (PROCEDURAL, bumpy_disk, disk, glove, procedural, saddle,
+                                          several_components, sphere, spherical_cap)
+from neuraluv.datasets.registry import (CLOSED, COMPACT, LARGE, REGISTRY, DataMissing, available, data_dir, fetch,
+                                        fetch_all, load, load_charts, load_raw)
+
+__all__ = [
+    "disk", "spherical_cap", "saddle", "bumpy_disk", "glove", "several_components", "sphere", "PROCEDURAL",
+    "procedural", "REGISTRY", "COMPACT", "CLOSED", "LARGE", "data_dir", "fetch", "fetch_all", "available", "load",
+    "load_raw", "load_charts", "DataMissing",
+]

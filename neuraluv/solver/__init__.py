@@ -1,0 +1,38 @@
+"""The neural chart solver (paper Sec. 3–4, Algorithm 1).
+
+=================  ==========================================================
+``config``         :class:`SolverConfig`, :data:`PRESETS` (torch-free)
+``device``         device selection, CPU thread control
+``siren``          the chart network (SIREN with a residual head)
+``energy``         Jacobians in torch, the C² extension, E_SD, barrier, objective
+``result``         :class:`ChartResult` (torch-free)
+``chart``          :func:`prepare_chart`, :func:`solve_chart`
+``ntk``            NTK–LBO probes of the chart network (paper Table 5)
+=================  ==========================================================
+
+``import neuraluv.solver`` loads only the torch-free configuration; the rest
+is imported on first use.
+"""
+from __future__ import annotations
+
+import importlib
+
+from neuraluv.solver.config import PRESET_HELP, PRESETS, SolverConfig, get_config
+
+__all__ = ["SolverConfig", "PRESETS", "PRESET_HELP", "get_config", "ChartResult", "PreparedChart", "prepare_chart",
+           "solve_chart", "build_network", "resolve_device", "torch_threads"]
+
+_LAZY = {
+    "ChartResult": "result", "PreparedChart": "chart", "prepare_chart": "chart", "solve_chart": "chart",
+    "build_network": "chart", "resolve_device": "device", "torch_threads": "device",
+}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        return getattr(importlib.import_module(f"neuraluv.solver.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'neuraluv.solver' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,0 +1,72 @@
+"""nbval hooks: keep each notebook's executed outputs for the book, so every notebook runs once per ``make test``.
+
+``pytest --nbval-lax notebooks`` executes every notebook (each ``assert`` in it
+is a test). When all cells of a notebook pass, its outputs are written into the
+book's execution cache (jupyter-cache, ``book/_build/.jupyter_cache``, the
+cache ``jupyter-book build`` reads with ``execute_notebooks: cache``), so
+``make book`` renders them without executing the notebook a second time.
+Set ``NEURALUV_BOOK_CACHE=off`` to skip this.
+"""
+from __future__ import annotations
+
+import copy
+import os
+from pathlib import Path
+
+_RUNS: dict[Path, dict] = {}
+CACHE = Path(__file__).resolve().parents[1] / "book" / "_build" / ".jupyter_cache"
+
+
+def pytest_runtest_makereport(item, call):
+    if call.when != "call" or not hasattr(item, "cell_num") or not hasattr(item, "test_outputs"):
+        return
+    path = Path(str(item.parent.fspath)).resolve()
+    run = _RUNS.setdefault(path, {"outputs": {}, "failed": False})
+    if call.excinfo is not None:
+        run["failed"] = True
+    run["outputs"][item.cell_num] = item.test_outputs or []
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if os.environ.get("NEURALUV_BOOK_CACHE", "").lower() == "off" or not _RUNS:
+        return
+    try:
+        import nbformat
+        from jupyter_cache import get_cache
+        from jupyter_cache.base import CacheBundleIn
+    except ImportError:  # the docs extra is not installed: the book executes the notebooks itself
+        return
+    cache = get_cache(str(CACHE))
+    for path, run in _RUNS.items():
+        nb = nbformat.read(path, as_version=4)
+        code = [c for c in nb.cells if c.cell_type == "code"]
+        if run["failed"] or len(run["outputs"]) != len(code):
+            continue
+        executed = copy.deepcopy(nb)
+        count = 0
+        for cell in executed.cells:
+            if cell.cell_type != "code":
+                continue
+            outs = run["outputs"].get(count)  # nbval numbers the code cells from 0
+            count += 1
+            if outs is None:
+                break
+            cell.outputs = [nbformat.from_dict(_clean(o, count)) for o in outs]
+            cell.execution_count = count
+        else:
+            try:
+                cache.cache_notebook_bundle(CacheBundleIn(executed, str(path)), check_validity=False, overwrite=True)
+            except Exception as exc:  # a cache problem must not fail the tests; the book then executes the notebook
+                print(f"notebooks/conftest: could not cache {path.name} for the book ({type(exc).__name__}: {exc})")
+
+
+def _clean(out, count):
+    out = dict(out)
+    kind = out.get("output_type")
+    if kind == "execute_result":
+        out["execution_count"] = count
+        out.setdefault("metadata", {})
+    elif kind == "display_data":
+        out.setdefault("metadata", {})
+        out.pop("transient", None)
+    return out

@@ -1,0 +1,58 @@
+"""Sweeps on a dask LocalCluster: results, resume, timeout, tables."""
+import csv
+
+import numpy as np
+import pytest
+
+pytest.importorskip("distributed", reason="dask.distributed is not installed")
+
+from neuraluv.datasets.generated import generated_asset  # noqa: E402
+from neuraluv.io import write_obj  # noqa: E402
+from neuraluv.atlas.sweep import atlas_asset, list_assets, summarize, sweep  # noqa: E402
+
+KW = dict(preset="test", preview_iters=10, resolution=512, padding=4)
+
+
+@pytest.fixture
+def assets(tmp_path):
+    d = tmp_path / "in"
+    for i in (1, 4, 7):
+        V, F, info = generated_asset(i, res=12)
+        write_obj(d / f"{info['name']}.obj", V, F, np.zeros((len(V), 2)))
+    (d / "broken.obj").write_text("not a mesh\n")
+    return d
+
+
+def test_sweep_local_cluster_resume_and_tables(assets, tmp_path):
+    out = tmp_path / "out"
+    assert len(list_assets(assets)) == 4
+    res = sweep(assets, out, n_workers=2, processes=False, isolate=False, progress=False, timeout=120, **KW)
+    by = {r["name"].split("__")[-1]: r for r in res.rows}
+    assert by["broken"]["status"] == "error" and not by["broken"]["ok"]
+    good = [r for n, r in by.items() if n != "broken"]
+    assert all(r["ok"] and r["flips"] == 0 and r["overlaps"] == 0 for r in good)
+    s = res.summary
+    assert (s["tried"], s["ok"], s["flips"]) == (4, 3, 0)
+    assert s["faces"] == sum(r["faces"] for r in good) > 0
+    assert abs(s["neural_share"] + s["fallback_share"] - 1) < 1e-9
+    rows = list(csv.DictReader(open(res.paths["csv"])))
+    assert len(rows) == 4
+    md = res.paths["markdown"].read_text()
+    assert "| Tried | OK |" in md and "Neural-routed/fallback" in md
+    # resume: finished assets are not recomputed
+    res2 = sweep(assets, out, n_workers=2, processes=False, isolate=False, progress=False, timeout=120, **KW)
+    st = {r["name"].split("__")[-1]: r["status"] for r in res2.rows}
+    assert [st[n] for n in sorted(st) if n != "broken"] == ["cached"] * 3
+    assert res2.summary["faces"] == s["faces"]
+
+
+def test_subprocess_timeout_is_reported(assets, tmp_path):
+    row = atlas_asset(assets / "gen_001.obj", tmp_path / "t", timeout=0.5, isolate=True, **KW)
+    assert row["status"] == "timeout" and not row["ok"]
+
+
+def test_summarize_counts_only_successes():
+    rows = [{"ok": True, "faces": 10, "flips": 0, "neural_share": 0.5, "time": 1.0},
+            {"ok": False, "faces": 0, "flips": -1, "neural_share": 0.0, "time": 9.0}]
+    s = summarize(rows)
+    assert (s["tried"], s["ok"], s["faces"], s["median_time"]) == (2, 1, 10, 1.0)
