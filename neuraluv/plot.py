@@ -258,8 +258,9 @@ def plot_alignment_curves(curves, ax=None, *, title=None):
     return ax
 
 
-#: Figure 8 colours: neural charts blue, fallbacks red.
-ROUTE_COLORS = {"neural": (0.16, 0.40, 0.80, 1.0), "fallback": (0.86, 0.18, 0.15, 1.0)}
+#: Figure 8 colours: neural charts blue, exact unfolds green, fallbacks red.
+ROUTE_COLORS = {"neural": (0.16, 0.40, 0.80, 1.0), "exact": (0.20, 0.62, 0.35, 1.0), "fallback": (0.86, 0.18, 0.15, 1.0)}
+_ROUTE_ORDER = ("fallback", "neural", "exact")  # face_route codes 0, 1, 2
 
 
 def plot_routes(V, F, UV, FUV, face_route, *, islands=None, flips=None, zoom=True, view=None):
@@ -271,7 +272,7 @@ def plot_routes(V, F, UV, FUV, face_route, *, islands=None, flips=None, zoom=Tru
     F : (m,3) int array
     UV : (p,2) float array
     FUV : (m,3) int array
-    face_route : (m,) int array, 1 for neural-routed faces, 0 for fallback.
+    face_route : (m,) int array, 1 neural, 2 exact unfold, 0 marked fallback.
     islands, flips : int, optional
         Counts printed in the atlas panel's title.
     zoom : bool
@@ -289,13 +290,15 @@ def plot_routes(V, F, UV, FUV, face_route, *, islands=None, flips=None, zoom=Tru
     fb = face_route == 0
     ncol = 3 if (zoom and fb.any()) else 2
     fig, axes = plt.subplots(1, ncol, figsize=(4.2 * ncol, 4.2))
-    cmap = ListedColormap([ROUTE_COLORS["fallback"][:3], ROUTE_COLORS["neural"][:3]])
-    img = render_surface(V, F, scalars=face_route.astype(float), cmap=cmap, clim=(0, 1), view=view)
+    cmap = ListedColormap([ROUTE_COLORS[r][:3] for r in _ROUTE_ORDER])
+    img = render_surface(V, F, scalars=face_route.astype(float), cmap=cmap, clim=(0, 2), view=view)
     axes[0].imshow(img)
     axes[0].axis("off")
-    share = float(face_route.mean()) if len(face_route) else 0.0
-    axes[0].set_title(f"(a) routes: neural {100 * share:.1f}% / fallback {100 * (1 - share):.1f}% of faces", fontsize=9)
-    fc = np.array([ROUTE_COLORS["neural"] if r else ROUTE_COLORS["fallback"] for r in face_route])
+    share = [float((face_route == k).mean()) if len(face_route) else 0.0 for k in range(3)]
+    axes[0].set_title(f"(a) routes: neural {100 * share[1]:.1f}% / exact {100 * share[2]:.1f}% / "
+                      f"fallback {100 * share[0]:.1f}% of faces", fontsize=9)
+    colors = np.array([ROUTE_COLORS[r] for r in _ROUTE_ORDER])
+    fc = colors[face_route.astype(int)]
     counts = ", ".join(s for s in (f"{islands} islands" if islands is not None else "",
                                    f"{flips} flips" if flips is not None else "") if s)
     plot_uv_layout(V, F, UV, ax=axes[1], FUV=FUV, face_colors=fc, title="(b) atlas" + (f": {counts}" if counts else ""))

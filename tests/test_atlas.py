@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from neuraluv.atlas import (
-    bisect_faces, build_atlas, chart_candidates, pca_uv, per_face_uv, prepare_mesh, read_atlas, route_chart,
-    self_overlap, validate_atlas, write_atlas,
+    bisect_faces, build_atlas, chart_candidates, fallback_islands, pca_uv, per_face_uv, prepare_mesh, read_atlas,
+    route_chart, self_overlap, validate_atlas, write_atlas,
 )
 from neuraluv.datasets import disk, sphere, spherical_cap
 from neuraluv.datasets.generated import add_nonmanifold, flip_windings, generated_asset, unweld
@@ -17,7 +17,7 @@ from neuraluv.metrics import distortion_metrics
 from neuraluv.solver import get_config
 from neuraluv.topology import is_disk_like, topology_scan
 
-FAST = dict(preset="test", preview_iters=10, iterations=30, resolution=512, padding=4, threads=1)
+FAST = dict(preset="test", iterations=30, resolution=512, padding=4, threads=1, device="cpu")
 
 
 def _readback_ok(res, path):
@@ -67,18 +67,17 @@ def test_bisect_and_fallbacks_are_flip_free():
     assert sum(map(len, parts)) == len(F) and len(parts) >= 2
     for uv, f in zip(per_face_uv(V, F[:5]), F[:5]):
         assert distortion_metrics(V[f], np.array([[0, 1, 2]]), uv)["esd"] == pytest.approx(4.0)
-    # force the fallback chain: the network is skipped, the chart is split until PCA is valid
-    ch = route_chart(V, F, np.arange(len(F)), get_config("test"), get_config("test"), min_neural_faces=10**9)
-    assert ch.route == "fallback" and "small chart" in ch.reason
-    assert ch.method in ("split-pca", "per-face") and len(ch.islands) > 1
-    assert ch.metrics["flips"] == 0
-    for fidx, vi, Fl, uv in ch.islands:
+    # the fallback chain: PCA folds, so the chart is split until PCA is valid on every piece
+    method, islands, why = fallback_islands(V, F, np.arange(len(F)), "forced")
+    assert method in ("split-pca", "per-face") and len(islands) > 1 and why == "forced"
+    for fidx, vi, Fl, uv in islands:
+        assert distortion_metrics(V[vi], Fl, uv)["flips"] == 0
         assert self_overlap(uv, Fl) == 0.0
 
 
 def test_route_chart_neural_on_a_disk():
     V, F = disk(n_rings=4)
-    ch = route_chart(V, F, np.arange(len(F)), get_config("test", iterations=10, retries=0), get_config("test"))
+    ch = route_chart(V, F, np.arange(len(F)), get_config("test", iterations=10, retries=0))
     assert ch.route == "neural" and ch.method == "neural" and ch.reason == ""
     assert ch.metrics["flips"] == 0 and ch.solver["status"] == "neural"
 
@@ -159,12 +158,13 @@ def test_cli_check_atlas_and_errors(tmp_path, capsys):
     assert {"non-manifold edges", "duplicate faces"} <= kinds
     assert all(f["meaning"] and f["repair"] for f in chk["findings"])
     out, rep = tmp_path / "a.obj", tmp_path / "a.json"
-    rc = main(["atlas", str(src), "-o", str(out), "--report", str(rep), "--preset", "test", "--preview-iters", "10",
+    rc = main(["atlas", str(src), "-o", str(out), "--report", str(rep), "--preset", "test", "--iterations", "10",
                "--resolution", "512", "--threads", "1", "--quiet"])
     assert rc == 0
     r = json.loads(rep.read_text())
     assert r["ok"] and r["readback"]["flips"] == 0 and r["readback"]["covered_faces"] == r["totals"]["repaired_faces"]
-    assert abs(r["totals"]["neural_share"] + r["totals"]["fallback_share"] - 1) < 1e-12
+    t = r["totals"]
+    assert abs(t["neural_share"] + t["exact_share"] + t["fallback_share"] - 1) < 1e-12
     capsys.readouterr()
     (tmp_path / "empty.obj").write_text("")
     assert main(["atlas", str(tmp_path / "empty.obj"), "-o", str(tmp_path / "e.obj")]) == 2
@@ -177,8 +177,9 @@ def test_renders_route_figure(tmp_path):
     pytest.importorskip("pyvista")
     from neuraluv.atlas import save_renders
 
-    res = build_atlas(*sphere(1), **{**FAST, "min_neural_faces": 6})
-    assert (res.face_route == 0).any() and (res.face_route == 1).any()
+    V, F, _ = generated_asset(2, res=16)  # messy: neural charts, exact strips and fallbacks
+    res = build_atlas(V, F, **FAST)
+    assert (res.face_route == 1).any() and len(np.unique(res.face_route)) >= 2
     paths = save_renders(res, tmp_path)
     assert all(p.exists() and p.stat().st_size > 1000 for p in paths)
 
@@ -216,3 +217,21 @@ def test_repack_changes_only_the_placement(tmp_path):
         e1 = np.linalg.norm(np.diff(again.UV[again.FUV[f0]], axis=1), axis=2).ravel()
         r = e1 / np.maximum(e0, 1e-12)
         assert np.ptp(r[e0 > 1e-4]) < 1e-3 * r.mean()
+
+
+def test_exact_unfold_of_strips_is_an_isometry():
+    """A chart without interior vertices unfolds exactly (E_SD 4, no flips); one with an interior vertex does not."""
+    from neuraluv.atlas import boundary_is_simple, unfold_tree
+
+    V, F = disk(n_rings=3)
+    outer = np.flatnonzero(np.all(np.linalg.norm(V[F][:, :, :2], axis=2) > 0.4, axis=1))  # the outer ring: a strip
+    from neuraluv.topology import submesh
+
+    vi, Fl = submesh(F, outer[:12])
+    Vc = V[vi] + np.c_[np.zeros((len(vi), 2)), 0.3 * V[vi, 0] ** 2]  # bend it in 3D
+    UV = unfold_tree(Vc, Fl)
+    m = distortion_metrics(Vc, Fl, UV)
+    assert m["flips"] == 0 and m["esd"] == pytest.approx(4.0, abs=1e-9) and boundary_is_simple(UV, Fl)
+    assert unfold_tree(*disk(n_rings=2)) is None  # interior vertices: no exact unfold
+    res = route_chart(Vc, Fl, np.arange(len(Fl)), get_config("test"))
+    assert res.route == "exact" and res.method == "exact-unfold" and res.metrics["esd"] == pytest.approx(4.0)

@@ -10,7 +10,7 @@ from neuraluv.datasets.generated import generated_asset  # noqa: E402
 from neuraluv.io import write_obj  # noqa: E402
 from neuraluv.atlas.sweep import atlas_asset, list_assets, summarize, sweep  # noqa: E402
 
-KW = dict(preset="test", preview_iters=10, resolution=512, padding=4)
+KW = dict(preset="test", iterations=10, resolution=512, padding=4)
 
 
 @pytest.fixture
@@ -34,11 +34,11 @@ def test_sweep_local_cluster_resume_and_tables(assets, tmp_path):
     s = res.summary
     assert (s["tried"], s["ok"], s["flips"]) == (4, 3, 0)
     assert s["faces"] == sum(r["faces"] for r in good) > 0
-    assert abs(s["neural_share"] + s["fallback_share"] - 1) < 1e-9
+    assert abs(s["neural_share"] + s.get("exact_share", 0) + s["fallback_share"] - 1) < 1e-9
     rows = list(csv.DictReader(open(res.paths["csv"])))
     assert len(rows) == 4
     md = res.paths["markdown"].read_text()
-    assert "| Tried | OK |" in md and "Neural-routed/fallback" in md
+    assert "| Tried | OK |" in md and "Neural / exact / fallback faces" in md
     # resume: finished assets are not recomputed
     res2 = sweep(assets, out, n_workers=2, processes=False, isolate=False, progress=False, timeout=120, **KW)
     st = {r["name"].split("__")[-1]: r["status"] for r in res2.rows}

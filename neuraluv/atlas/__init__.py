@@ -7,8 +7,9 @@ A whole, possibly messy, input mesh becomes a packed UV atlas:
                    split non-manifold edges and vertices
 ``candidates``     2. chart candidates: components, xatlas seams, bisection
                    until every candidate is disk-like
-``routing``        3. each candidate → the neural solver (preview, retry) or
-                   a marked fallback (PCA → split → per-face), with its reason
+``routing``        3. each candidate → an exact unfold (no interior vertex), the
+                   neural solver (all charts in batches), or a marked fallback
+                   (PCA → split → per-face), with its reason
 ``build``          4. packing (area-scaled shelf or xatlas) and the
                    :class:`AtlasResult`; :func:`build_atlas` runs 1–5
 ``validate``       5. exact validation: flips, overlaps, bounds, padding
@@ -22,11 +23,12 @@ from neuraluv.atlas.build import AtlasResult, build_atlas, repack
 from neuraluv.atlas.candidates import bisect_faces, chart_candidates, seam_charts
 from neuraluv.atlas.export import atlas_file, plot_routes, read_atlas, save_renders, write_atlas
 from neuraluv.atlas.prepare import prepare_mesh
-from neuraluv.atlas.routing import AtlasChart, fallback_islands, pca_uv, per_face_uv, route_chart
+from neuraluv.atlas.routing import (AtlasChart, boundary_is_simple, fallback_islands, pca_uv, per_face_uv, route_chart,
+                                    route_charts, unfold_tree)
 from neuraluv.atlas.validate import self_overlap, triangles_union, uv_islands, validate_atlas
 
 __all__ = [
     "AtlasChart", "AtlasResult", "prepare_mesh", "seam_charts", "bisect_faces", "chart_candidates",
-    "pca_uv", "per_face_uv", "fallback_islands", "self_overlap", "triangles_union", "route_chart", "build_atlas",
+    "pca_uv", "per_face_uv", "fallback_islands", "self_overlap", "triangles_union", "route_chart", "route_charts", "unfold_tree", "boundary_is_simple", "build_atlas",
     "validate_atlas", "write_atlas", "read_atlas", "plot_routes", "save_renders", "atlas_file", "uv_islands", "repack",
 ]

@@ -13,14 +13,14 @@ import numpy as np
 from neuraluv import __version__
 from neuraluv.atlas.candidates import chart_candidates
 from neuraluv.atlas.prepare import prepare_mesh
-from neuraluv.atlas.routing import route_chart
+from neuraluv.atlas.routing import ROUTES, route_charts
 from neuraluv.atlas.validate import validate_atlas
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import normalize_unit_box
 from neuraluv.packing import rotate_to_min_box, shelf_pack, xatlas_pack
 from neuraluv.solver.config import get_config
-from neuraluv.solver.device import torch_threads
+from neuraluv.solver.device import resolve_device, torch_threads
 from neuraluv.topology import topology_scan
 
 __all__ = ["AtlasResult", "build_atlas", "repack"]
@@ -38,7 +38,8 @@ class AtlasResult:
     FUV : (m,3) int array, per-corner indices into ``UV``.
     charts : list of AtlasChart.
     face_chart : (m,) int array, chart of each face.
-    face_route : (m,) int array, 1 for neural-routed faces, 0 for fallback.
+    face_route : (m,) int array, the route of each face: 1 neural, 2 exact unfold, 0 marked fallback
+        (:data:`~neuraluv.atlas.routing.ROUTES`).
     validation : dict from :func:`validate_atlas` (in memory).
     info : dict, input counts, repair, packing, timings.
     """
@@ -60,7 +61,9 @@ class AtlasResult:
     def totals(self):
         """Table 8 quantities: coverage, routed face shares, flips, overlaps."""
         m = len(self.F)
-        nf = int(self.face_route.sum())
+        nf = int((self.face_route == ROUTES["neural"]).sum())
+        ne = int((self.face_route == ROUTES["exact"]).sum())
+        nb = m - nf - ne
         charts = self.charts
         reasons = {}
         for c in charts:
@@ -74,12 +77,15 @@ class AtlasResult:
             "covered_faces": int(v.get("covered_faces", 0)),
             "coverage": v.get("covered_faces", 0) / m if m else 0.0,
             "neural_faces": nf,
-            "fallback_faces": m - nf,
+            "exact_faces": ne,
+            "fallback_faces": nb,
             "neural_share": nf / m if m else 0.0,
-            "fallback_share": (m - nf) / m if m else 0.0,
+            "exact_share": ne / m if m else 0.0,
+            "fallback_share": nb / m if m else 0.0,
             "charts": len(charts),
             "neural_charts": sum(c.route == "neural" for c in charts),
-            "fallback_charts": sum(c.route != "neural" for c in charts),
+            "exact_charts": sum(c.route == "exact" for c in charts),
+            "fallback_charts": sum(c.route == "fallback" for c in charts),
             "islands": int(v.get("islands", 0)),
             "flips": int(v.get("flips", -1)),
             "overlapping_pairs": int(v.get("overlapping_pairs", -1)),
@@ -103,9 +109,8 @@ class AtlasResult:
         })
 
 
-def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="shelf", seed=0, device="cpu",
-                preview_iters=None, min_neural_faces=3, max_esd=1e3, max_cost=4.0, time_budget=None,
-                threads=None, progress=False, min_height=1e-6, **overrides):
+def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="shelf", seed=0, device="auto",
+                max_cost=4.0, time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
     """Build a validated UV atlas of a whole (possibly messy) mesh.
 
     Parameters
@@ -113,8 +118,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
     V : (n,3) float array
     F : (m,3) int array
     preset : str or SolverConfig
-        Solver preset for the retry; the preview uses the same preset with
-        ``preview_iters`` iterations and no seed retries.
+        The neural solver's preset (every chart that needs it is solved with it, in batches).
     resolution : int
         Target texture resolution the padding refers to.
     padding : float
@@ -122,24 +126,18 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
     packer : ``"shelf"`` (the paper's area-scaled shelf packer) or ``"xatlas"``.
     seed : int
     device : str
-    preview_iters : int, optional
-        Iterations of the preview pass (default: a fifth of the preset's, at least 20).
-    min_neural_faces : int
-        Candidates below this face count skip the network (exact unfold).
-    max_esd : float
-        Preview quality threshold (above it the chart is retried).
     max_cost : float
         xatlas charting cost for seams.
     min_height : float
         Sliver threshold of :func:`prepare_mesh` (relative to the diagonal).
     time_budget : float, optional
-        Seconds after which no new neural solve starts (remaining charts become
-        marked fallbacks).
+        Seconds after which running neural solves stop with their best valid map and
+        charts not yet solved become marked fallbacks.
     threads : int, optional
         torch CPU threads during the solves (restored afterwards).
     progress : bool
     **overrides
-        SolverConfig overrides applied to both passes.
+        SolverConfig overrides.
 
     Returns
     -------
@@ -153,7 +151,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
     Examples
     --------
     >>> from neuraluv.datasets import sphere
-    >>> res = build_atlas(*sphere(1), "test", resolution=256, padding=2)
+    >>> res = build_atlas(*sphere(1), "test", resolution=256, padding=2, device="cpu")
     >>> res.valid, res.totals()["coverage"], res.totals()["flips"]
     (True, 1.0, 0)
     """
@@ -166,26 +164,12 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
         raise NeuralUVError("no usable faces: every face is degenerate (zero area or repeated corners)")
     topo = topology_scan(Vr, Fr)
     cfg = get_config(preset, **overrides)
-    pre_it = preview_iters if preview_iters is not None else max(20, cfg.iterations // 5)
-    preview = get_config(cfg, iterations=min(pre_it, cfg.iterations), retries=0, early_stop=True)
-    retry = get_config(cfg, retries=max(cfg.retries, 1), lr=cfg.lr * 0.5)
     t_rep = time.perf_counter()
     cands = chart_candidates(Vr, Fr, max_cost=max_cost)
     t_cand = time.perf_counter()
     deadline = None if time_budget is None else t0 + float(time_budget)
-    charts = []
-    it = cands
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = it = tqdm(cands, desc="charts", leave=False, dynamic_ncols=True)
     with torch_threads(threads):
-        for k, (fidx, src) in enumerate(it):
-            charts.append(route_chart(Vr, Fr, fidx, preview, retry, seed=seed, device=device,
-                                      min_neural_faces=min_neural_faces, max_esd=max_esd, source=src, deadline=deadline))
-    if bar is not None:
-        bar.close()
+        charts = route_charts(Vr, Fr, cands, cfg, seed=seed, device=device, deadline=deadline, progress=progress)
     t_route = time.perf_counter()
     Vout = Vin[vmap]
     UV, FUV, face_chart, face_route, packed = _pack(charts, len(Fr), packer, padding, resolution)
@@ -196,14 +180,13 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
         "repaired_vertices": int(len(Vr)), "repaired_faces": int(len(Fr)),
         "repair": rinfo, "topology": topo.as_dict(),
         "preset": preset if isinstance(preset, str) else "custom",
-        "preview": {"iterations": preview.iterations, "retries": preview.retries},
-        "retry": {"iterations": retry.iterations, "retries": retry.retries, "lr": retry.lr},
-        "min_neural_faces": min_neural_faces, "max_esd": max_esd, "max_cost": max_cost, "time_budget": time_budget,
+        "solver": {"iterations": cfg.iterations, "retries": cfg.retries, "optimizer": cfg.optimizer, "width": cfg.width},
+        "max_cost": max_cost, "time_budget": time_budget,
         "packer": packer, "resolution": resolution, "padding": padding,
         "utilisation": packed.utilisation, "pack_scale": packed.scale,
         "timings": {"repair": t_rep - t0, "candidates": t_cand - t_rep, "routing": t_route - t_cand,
                     "packing": t_pack - t_route, "validation": time.perf_counter() - t_pack},
-        "time": time.perf_counter() - t0, "device": str(device), "seed": seed,
+        "time": time.perf_counter() - t0, "device": str(resolve_device(device)), "seed": seed,
     }
     return AtlasResult(V=Vout, F=Fr, UV=UV, FUV=FUV, charts=charts, face_chart=face_chart, face_route=face_route,
                        validation=validation, info=info)
@@ -233,7 +216,7 @@ def _pack(charts, m, packer, padding, resolution):
     face_route = np.zeros(m, np.int8)
     for i, c in enumerate(charts):
         face_chart[c.faces] = i
-        face_route[c.faces] = c.route == "neural"
+        face_route[c.faces] = ROUTES[c.route]
     return UV, FUV, face_chart, face_route, packed
 
 

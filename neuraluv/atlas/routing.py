@@ -1,4 +1,15 @@
-"""Atlas step 3: route each disk-like candidate to the neural solver or a marked fallback."""
+"""Atlas step 3: route each disk-like candidate — exact unfold, the neural solver, or a marked fallback.
+
+* A candidate without interior vertices (a strip or fan of triangles: its dual
+  graph is a tree, so it has zero curvature everywhere) is **unfolded
+  exactly** (:func:`unfold_tree`): an isometry, E_SD = 4, no solver needed.
+* Every other candidate goes to the **neural solver**; all of them are solved
+  together in batches (:func:`neuraluv.solver.solve_charts`), each with its
+  own network, seeds and retries.
+* A candidate whose neural map is invalid (flips, or a boundary that crosses
+  itself) becomes a **marked fallback** (PCA → split into halves → per-face),
+  with its reason.
+"""
 from __future__ import annotations
 
 import time
@@ -9,9 +20,13 @@ import numpy as np
 from neuraluv.atlas.candidates import bisect_faces
 from neuraluv.atlas.validate import self_overlap
 from neuraluv.metrics import distortion_metrics
-from neuraluv.topology import submesh
+from neuraluv.topology import boundary_loop, submesh
 
-__all__ = ["AtlasChart", "pca_uv", "per_face_uv", "fallback_islands", "route_chart"]
+#: Route codes of ``AtlasResult.face_route``.
+ROUTES = {"fallback": 0, "neural": 1, "exact": 2}
+
+__all__ = ["AtlasChart", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "boundary_is_simple", "fallback_islands",
+           "route_charts", "route_chart"]
 
 
 def pca_uv(V, F):
@@ -63,10 +78,9 @@ class AtlasChart:
     Attributes
     ----------
     faces : (k,) int array, faces of the repaired mesh.
-    route : ``"neural"`` or ``"fallback"``.
-    method : ``"neural"``, ``"neural-retry"``, ``"pca"``, ``"split-pca"``,
-        ``"per-face"``.
-    reason : why a fallback was used (or the retry reason for neural charts).
+    route : ``"neural"``, ``"exact"`` or ``"fallback"``.
+    method : ``"neural"``, ``"exact-unfold"``, ``"pca"``, ``"split-pca"``, ``"per-face"``.
+    reason : why a fallback was used (empty otherwise).
     source : how the candidate arose (component, xatlas seams, split).
     islands : list of ``(fidx, vidx, Fl, uv)``: faces, vertices, local faces and
         UVs (3D scale) of each packed island (one for neural charts).
@@ -119,96 +133,208 @@ def fallback_islands(V, F, fidx, why, depth=0):
     return "per-face", out, why
 
 
-def route_chart(V, F, fidx, preview, retry, *, seed=0, device="cpu", min_neural_faces=3, max_esd=1e3,
-                source="component", deadline=None):
-    """Route one disk-like candidate: neural (preview, then retry) or a marked fallback.
+def unfold_tree(V, F):
+    """Isometric unfold of a chart without interior vertices (a strip or fan of triangles).
 
     Parameters
     ----------
     V : (n,3) float array
     F : (m,3) int array
-    fidx : (k,) int array, the candidate's faces.
-    preview, retry : SolverConfig
-        The short preview pass and the stricter retry schedule.
-    seed : int
-    device : str
-    min_neural_faces : int
-        Candidates with fewer faces skip the network and take the exact
-        per-face/PCA unfold (marked fallback, reason "small chart").
-    max_esd : float
-        Quality threshold: a preview above it is retried (the retry result is
-        kept whenever it is valid).
-    source : str
-    deadline : float, optional
-        ``time.perf_counter()`` value after which no more neural solves start
-        (remaining charts become fallbacks, reason "time budget").
+        A disk-like chart whose every vertex is on the boundary.
 
     Returns
     -------
-    AtlasChart
+    UV : (n,2) float array or None
+        Each triangle keeps its 3D edge lengths (det J = 1, E_SD = 4 exactly) and
+        its orientation; None when the chart has an interior vertex.
+
+    Notes
+    -----
+    With no interior vertex, a disk's faces and interior edges form a tree
+    (Euler: ``E_int = m − 1``), so laying the first triangle down and each
+    neighbour across its shared edge places every vertex exactly once. The
+    result is locally injective; whether its boundary crosses itself is checked
+    separately (:func:`boundary_is_simple`).
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 1]])
+    >>> F = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> UV = unfold_tree(V, F)
+    >>> m = distortion_metrics(V, F, UV); round(m["esd"], 12), m["flips"]
+    (4.0, 0)
+    """
+    V = np.asarray(V, float)
+    F = np.asarray(F, np.int64)
+    bnd = boundary_loop(F) if len(F) > 1 else F[0]
+    if len(np.unique(F)) != len(bnd):
+        return None
+    edge_faces = {}
+    for f, (a, b, c) in enumerate(F):
+        for u, v in ((a, b), (b, c), (c, a)):
+            edge_faces.setdefault((min(u, v), max(u, v)), []).append(f)
+    UV = np.full((len(V), 2), np.nan)
+    a, b, c = F[0]
+    lab, lac = np.linalg.norm(V[b] - V[a]), np.linalg.norm(V[c] - V[a])
+    e1, e2 = V[b] - V[a], V[c] - V[a]
+    x = float(e2 @ e1) / max(lab, 1e-300)
+    UV[a], UV[b], UV[c] = (0.0, 0.0), (lab, 0.0), (x, np.sqrt(max(lac * lac - x * x, 0.0)))
+    placed = np.zeros(len(F), bool)
+    placed[0] = True
+    queue = [0]
+    while queue:
+        f = queue.pop()
+        tri = F[f]
+        for k in range(3):
+            u, v = tri[k], tri[(k + 1) % 3]
+            for g in edge_faces[(min(u, v), max(u, v))]:
+                if placed[g]:
+                    continue
+                placed[g] = True
+                queue.append(g)
+                w = [t for t in F[g] if t != u and t != v][0]
+                if np.isnan(UV[w, 0]):
+                    UV[w] = _apex(V, F[g], w, UV)
+    if not (placed.all() and np.isfinite(UV).all()):
+        return None
+    return UV if distortion_metrics(V, F, UV)["valid"] else None
+
+
+def _apex(V, face, w, UV):
+    """Place vertex ``w`` of ``face`` from its two placed neighbours, keeping the face counter-clockwise."""
+    i = int(np.flatnonzero(face == w)[0])
+    p, q = face[(i + 1) % 3], face[(i + 2) % 3]          # face order (w, p, q): counter-clockwise
+    P, Q = UV[p], UV[q]
+    d = Q - P
+    L = float(np.hypot(*d))
+    rp, rq = np.linalg.norm(V[w] - V[p]), np.linalg.norm(V[w] - V[q])
+    t = (rp * rp - rq * rq + L * L) / (2 * L * L)
+    h = np.sqrt(max(rp * rp - (t * L) ** 2, 0.0)) / L
+    # (w, p, q) counter-clockwise ⇔ (p, q, w) counter-clockwise ⇔ w lies left of the directed edge p → q
+    return P + t * d + h * np.array([-d[1], d[0]])
+
+
+def boundary_is_simple(UV, F):
+    """True when the chart's boundary loop does not cross itself in UV (with no flip: globally injective).
+
+    Examples
+    --------
+    >>> F = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> boundary_is_simple(np.array([[0., 0], [1, 0], [1, 1], [0, 1]]), F)
+    True
+    """
+    import shapely
+
+    bnd = boundary_loop(F)
+    if len(bnd) < 3:
+        return False
+    ring = shapely.LinearRing(np.asarray(UV, float)[bnd])
+    return bool(ring.is_simple)
+
+
+def _finish(chart, V, t0):
+    """Chart metrics over its islands (exploded, so islands are independent) and the routing time."""
+    Vx = np.vstack([V[isl[1]] for isl in chart.islands])
+    off = np.cumsum([0] + [len(isl[1]) for isl in chart.islands])
+    Fx = np.vstack([isl[2] + o for isl, o in zip(chart.islands, off[:-1])])
+    Ux = np.vstack([isl[3] for isl in chart.islands])
+    chart.metrics = distortion_metrics(Vx, Fx, Ux)
+    chart.time = time.perf_counter() - t0
+    return chart
+
+
+def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadline=None, progress=False):
+    """Route disk-like candidates: exact unfold, neural (batched), or a marked fallback.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    candidates : list of (fidx, source)
+        Face sets of disk-like charts (e.g. :func:`~neuraluv.atlas.candidates.chart_candidates`).
+    config : str or SolverConfig
+        The neural solver's preset (its retries apply per chart).
+    seed : int
+    device : str
+    deadline : float, optional
+        ``time.perf_counter()`` value: solves still running then stop with their best valid map;
+        charts not started become marked fallbacks ("time budget").
+    progress : bool
+
+    Returns
+    -------
+    list of AtlasChart
+        In the order of ``candidates``.
 
     Examples
     --------
     >>> from neuraluv.datasets import spherical_cap
     >>> from neuraluv.solver.config import get_config
     >>> V, F = spherical_cap(n_rings=4)
-    >>> c = route_chart(V, F, np.arange(len(F)), get_config("test", iterations=10, retries=0), get_config("test"))
+    >>> c = route_charts(V, F, [(np.arange(len(F)), "component"), (np.array([0]), "split")], get_config("test"))
+    >>> [(x.route, x.method, x.metrics["flips"]) for x in c]
+    [('neural', 'neural', 0), ('exact', 'exact-unfold', 0)]
+    """
+    from neuraluv.solver.chart import prepare_chart, solve_charts
+    from neuraluv.solver.config import get_config
+
+    cfg = get_config(config)
+    t0 = time.perf_counter()
+    out = [None] * len(candidates)
+    todo, preps, why = [], [], {}
+    for k, (fidx, src) in enumerate(candidates):
+        fidx = np.asarray(fidx, np.int64)
+        vi, Fl = submesh(F, fidx)
+        uv = unfold_tree(V[vi], Fl)
+        if uv is not None and boundary_is_simple(uv, Fl):
+            out[k] = _finish(AtlasChart(fidx, "exact", "exact-unfold", "", src, [(fidx, vi, Fl, uv)]), V, t0)
+            continue
+        if uv is not None:
+            why[k] = "exact unfold overlaps itself; "
+        try:
+            preps.append(prepare_chart(V[vi], Fl, cfg, check=False, label=f"chart {k}"))
+            todo.append(k)
+        except Exception as exc:  # degenerate input for the eigensolver etc.: a marked fallback, never a crash
+            why[k] = why.get(k, "") + f"neural solver error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+    results = []
+    if todo and (deadline is None or time.perf_counter() < deadline):
+        results = solve_charts(None, cfg, preps=preps, seed=seed, device=device, deadline=deadline, progress=progress)
+    else:
+        for k in todo:
+            why[k] = why.get(k, "") + "time budget exhausted before the neural solve"
+    for k, res in zip(todo, results):
+        fidx = np.asarray(candidates[k][0], np.int64)
+        src = candidates[k][1]
+        vi, Fl = submesh(F, fidx)
+        solver = res.summary()
+        solver.pop("metrics", None)
+        if res.status == "neural" and boundary_is_simple(res.uv, Fl):
+            out[k] = _finish(AtlasChart(fidx, "neural", "neural", "", src, [(fidx, vi, Fl, res.uv)], solver=solver), V, t0)
+            continue
+        if res.status == "neural":
+            why[k] = why.get(k, "") + f"neural map overlaps itself in UV ({100 * self_overlap(res.uv, Fl):.3g}% of its area)"
+        else:
+            why[k] = why.get(k, "") + f"neural: {res.reason}"
+        method, islands, reason = fallback_islands(V, F, fidx, why[k])
+        out[k] = _finish(AtlasChart(fidx, "fallback", method, reason, src, islands, solver=solver), V, t0)
+    for k in range(len(candidates)):
+        if out[k] is None:
+            fidx = np.asarray(candidates[k][0], np.int64)
+            method, islands, reason = fallback_islands(V, F, fidx, why.get(k, "not solved"))
+            out[k] = _finish(AtlasChart(fidx, "fallback", method, reason, candidates[k][1], islands), V, t0)
+    return out
+
+
+def route_chart(V, F, fidx, config="fast", *, seed=0, device="cpu", source="component", deadline=None):
+    """Route one disk-like candidate (see :func:`route_charts`).
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import spherical_cap
+    >>> from neuraluv.solver.config import get_config
+    >>> V, F = spherical_cap(n_rings=4)
+    >>> c = route_chart(V, F, np.arange(len(F)), get_config("test", iterations=10, retries=0))
     >>> c.route, c.metrics["flips"]
     ('neural', 0)
     """
-    from neuraluv.solver.chart import solve_chart
-
-    t0 = time.perf_counter()
-    fidx = np.asarray(fidx, np.int64)
-    vi, Fl = submesh(F, fidx)
-    Vc = V[vi]
-    chart = None
-    solver_summary = None
-    if len(fidx) < min_neural_faces:
-        why = f"small chart ({len(fidx)} < {min_neural_faces} faces): exact unfold, network skipped"
-    elif deadline is not None and time.perf_counter() > deadline:
-        why = "time budget exhausted before this chart"
-    else:
-        why, retry_why = "", ""
-        for stage, cfg in (("preview", preview), ("retry", retry)):
-            try:
-                res = solve_chart(Vc, Fl, cfg, seed=seed, device=device, check=False, label=f"{stage}")
-            except Exception as exc:  # degenerate input for eigensolvers etc.
-                why = f"neural solver error in {stage}: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-                continue
-            solver_summary = res.summary()
-            solver_summary.pop("metrics", None)
-            if res.status != "neural":
-                why = f"{stage}: {res.reason}"
-            else:
-                ov = self_overlap(res.uv, Fl)
-                if ov > 0:
-                    why = f"{stage}: chart overlaps itself in UV ({100 * ov:.3g}% of its area)"
-                elif stage == "preview" and not (res.metrics["esd"] <= max_esd):
-                    why = f"preview E_SD {res.metrics['esd']:.4g} above the quality threshold {max_esd:g}"
-                    retry_why = why
-                    best = res
-                    continue
-                else:
-                    chart = AtlasChart(fidx, "neural", "neural" if stage == "preview" else "neural-retry",
-                                       retry_why or (why if stage == "retry" else ""), source, [(fidx, vi, Fl, res.uv)])
-                    break
-            if deadline is not None and time.perf_counter() > deadline:
-                why += "; time budget exhausted before the retry"
-                break
-        if chart is None and retry_why and "best" in locals():
-            # the retry was invalid, the preview valid but above the threshold: keep the preview
-            chart = AtlasChart(fidx, "neural", "neural", f"{retry_why}; retry did not improve it", source,
-                               [(fidx, vi, Fl, best.uv)])
-    if chart is None:
-        method, islands, why = fallback_islands(V, F, fidx, why)
-        chart = AtlasChart(fidx, "fallback", method, why, source, islands)
-    # chart metrics over its islands (exploded so islands are independent)
-    Vx = np.vstack([V[isl[1]] for isl in chart.islands])
-    off = np.cumsum([0] + [len(isl[1]) for isl in chart.islands])
-    Fx = np.vstack([isl[2] + o for isl, o in zip(chart.islands, off[:-1])])
-    Ux = np.vstack([isl[3] for isl in chart.islands])
-    chart.metrics = distortion_metrics(Vx, Fx, Ux)
-    chart.solver = solver_summary
-    chart.time = time.perf_counter() - t0
-    return chart
+    return route_charts(V, F, [(fidx, source)], config, seed=seed, device=device, deadline=deadline)[0]

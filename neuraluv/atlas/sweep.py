@@ -27,7 +27,7 @@ from neuraluv.errors import NeuralUVError
 __all__ = ["MESH_EXTS", "list_assets", "atlas_asset", "summarize", "SweepResult", "sweep"]
 
 MESH_EXTS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
-COLUMNS = ["name", "status", "ok", "faces", "flips", "overlaps", "neural_share", "fallback_share", "charts",
+COLUMNS = ["name", "status", "ok", "faces", "flips", "overlaps", "neural_share", "exact_share", "fallback_share", "charts",
            "islands", "time", "input", "output", "error"]
 
 
@@ -71,7 +71,8 @@ def _row_from_report(name, rep, status, t):
     return {
         "name": name, "status": status, "ok": bool(rep.get("ok", False)), "faces": int(tot.get("repaired_faces", 0)),
         "flips": int(back.get("flips", -1)), "overlaps": int(back.get("overlapping_pairs", -1)),
-        "neural_share": float(tot.get("neural_share", 0.0)), "fallback_share": float(tot.get("fallback_share", 0.0)),
+        "neural_share": float(tot.get("neural_share", 0.0)), "exact_share": float(tot.get("exact_share", 0.0)),
+        "fallback_share": float(tot.get("fallback_share", 0.0)),
         "charts": int(tot.get("charts", 0)), "islands": int(tot.get("islands", 0)), "time": float(t),
         "input": rep.get("input", ""), "output": rep.get("output", ""), "error": "",
     }
@@ -93,7 +94,7 @@ def atlas_asset(path, out_dir, *, timeout=600.0, resume=True, isolate=True, out_
         crash isolation) instead of in this process.
     out_format : ``"obj"`` or ``"glb"``
     **kw
-        ``preset``, ``packer``, ``resolution``, ``padding``, ``preview_iters``.
+        ``preset``, ``packer``, ``resolution``, ``padding``, ``iterations``.
 
     Returns
     -------
@@ -118,7 +119,7 @@ def atlas_asset(path, out_dir, *, timeout=600.0, resume=True, isolate=True, out_
     if isolate:
         cmd = [sys.executable, "-m", "neuraluv.cli", "atlas", str(path), "-o", str(out), "--report", str(rep_path),
                "--quiet", "--threads", str(kw.get("threads") or 1), "--time-budget", f"{budget:.3f}"]
-        for k in ("preset", "packer", "resolution", "padding", "preview_iters", "seed", "device"):
+        for k in ("preset", "packer", "resolution", "padding", "iterations", "seed", "device"):
             if kw.get(k) is not None:
                 cmd += [f"--{k.replace('_', '-')}", str(kw[k])]
         try:
@@ -148,7 +149,7 @@ def atlas_asset(path, out_dir, *, timeout=600.0, resume=True, isolate=True, out_
 
 
 def summarize(rows, label="sweep"):
-    """Table 9 row: tried, OK, faces, flips, neural/fallback face shares, median time.
+    """Table 9 row: tried, OK, faces, flips, neural / exact-unfold / fallback face shares, median time.
 
     Face shares are face-weighted over the successful assets.
 
@@ -162,20 +163,23 @@ def summarize(rows, label="sweep"):
     ok = [r for r in rows if r.get("ok")]
     faces = sum(int(r["faces"]) for r in ok)
     nf = sum(int(r["faces"]) * float(r["neural_share"]) for r in ok)
+    ne = sum(int(r["faces"]) * float(r.get("exact_share") or 0.0) for r in ok)
     times = [float(r["time"]) for r in ok]
     return {
         "run": label, "tried": len(rows), "ok": len(ok), "faces": faces,
         "flips": sum(max(int(r["flips"]), 0) for r in ok),
-        "neural_share": nf / faces if faces else 0.0, "fallback_share": 1 - nf / faces if faces else 0.0,
+        "neural_share": nf / faces if faces else 0.0, "exact_share": ne / faces if faces else 0.0,
+        "fallback_share": 1 - (nf + ne) / faces if faces else 0.0,
         "median_time": float(np.median(times)) if times else float("nan"),
     }
 
 
 def _markdown(s):
-    return ("| Run | Tried | OK | Faces | Flips | Neural-routed/fallback | Med. time |\n"
+    return ("| Run | Tried | OK | Faces | Flips | Neural / exact / fallback faces | Med. time |\n"
             "|---|---:|---:|---:|---:|---:|---:|\n"
             f"| {s['run']} | {s['tried']} | {s['ok']} | {s['faces']:,} | {s['flips']} | "
-            f"{100 * s['neural_share']:.1f}/{100 * s['fallback_share']:.1f}% | {s['median_time']:.2f}s |\n")
+            f"{100 * s['neural_share']:.1f} / {100 * s['exact_share']:.1f} / {100 * s['fallback_share']:.1f}% | "
+            f"{s['median_time']:.2f}s |\n")
 
 
 @dataclass
@@ -216,7 +220,7 @@ def sweep(inputs, out_dir, *, scheduler=None, n_workers=2, threads_per_worker=1,
     out_format : ``"obj"`` or ``"glb"``.
     limit : int, optional, only the first assets.
     client : dask.distributed.Client, optional, use this client.
-    **kw : atlas options (``preset``, ``packer``, ``resolution``, ``padding``, ``preview_iters``, ``seed``,
+    **kw : atlas options (``preset``, ``packer``, ``resolution``, ``padding``, ``iterations``, ``seed``,
         ``device``, ``threads``: torch threads per asset, default 1).
 
     Returns

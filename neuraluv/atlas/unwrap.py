@@ -18,7 +18,7 @@ from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import RepairReport, repair_mesh
 from neuraluv.metrics import distortion_metrics
 from neuraluv.packing import shelf_pack
-from neuraluv.solver.chart import ChartResult, solve_chart
+from neuraluv.solver.chart import ChartResult, solve_charts
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
 from neuraluv.topology import TopologyReport, components, is_disk_like, topology_scan
@@ -137,9 +137,9 @@ def unwrap(V, F, preset="fast", *, seed=0, device="auto", progress=False, paddin
             raise TopologyError(f"{what} is not disk-like: {why}")
         locals_.append(Fc)
     cfg = get_config(preset, **overrides)
-    charts: list[ChartResult] = []
-    for i, (vi, fi, Fc) in enumerate(parts):
-        charts.append(solve_chart(V[vi], Fc, cfg, seed=seed, device=device, progress=progress, label=f"chart {i}", check=False))
+    charts: list[ChartResult] = solve_charts([(V[vi], Fc) for vi, _, Fc in parts], cfg, seed=seed, device=device,
+                                             progress=progress, labels=[f"chart {i}" for i in range(len(parts))],
+                                             check=False)
     packed = shelf_pack([c.uv for c in charts], locals_, padding=padding, resolution=resolution)
     UV = np.zeros((len(V), 2))
     for (vi, _, _), uv in zip(parts, packed.uvs):

@@ -24,7 +24,7 @@ import numpy as np
 
 from neuraluv import __version__
 from neuraluv.atlas.candidates import chart_candidates
-from neuraluv.atlas.routing import route_chart
+from neuraluv.atlas.routing import route_charts
 from neuraluv.atlas.validate import triangles_union, uv_islands, validate_atlas
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import normalize_unit_box
@@ -146,8 +146,8 @@ class UVRepairResult:
         })
 
 
-def repair_uvs(V, F, UV, FUV=None, preset="fast", *, seed=0, device="cpu", preview_iters=None,
-               threads=None, padding=2.0, resolution=1024, **overrides):
+def repair_uvs(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", threads=None, padding=2.0,
+               resolution=1024, **overrides):
     """Re-solve only the UV charts that contain flipped faces.
 
     Parameters
@@ -159,8 +159,6 @@ def repair_uvs(V, F, UV, FUV=None, preset="fast", *, seed=0, device="cpu", previ
     preset : str or SolverConfig
     seed : int
     device : str
-    preview_iters : int, optional
-        Iterations of the preview pass (see :func:`neuraluv.atlas.route_chart`).
     threads : int, optional
         torch CPU threads during the solves.
     padding, resolution : float, int
@@ -196,9 +194,6 @@ def repair_uvs(V, F, UV, FUV=None, preset="fast", *, seed=0, device="cpu", previ
     bad_face = ~(det > 0)
     n, lab = uv_charts(F, FUV)
     cfg = get_config(preset, **overrides)
-    pre_it = preview_iters if preview_iters is not None else max(20, cfg.iterations // 5)
-    preview = get_config(cfg, iterations=min(pre_it, cfg.iterations), retries=0, early_stop=True)
-    retry = get_config(cfg, retries=max(cfg.retries, 1), lr=cfg.lr * 0.5)
     # vt indices used by more than one chart cannot be overwritten in place
     owner = -np.ones(len(UV), np.int64)
     shared = np.zeros(len(UV), bool)
@@ -223,8 +218,7 @@ def repair_uvs(V, F, UV, FUV=None, preset="fast", *, seed=0, device="cpu", previ
             ti, Vc, Fc = chart_mesh(Vn, F, FUV, fidx)
             cands = chart_candidates(Vc, Fc)
             islands, routes, reasons = [], [], []
-            for cf, src in cands:
-                ch = route_chart(Vc, Fc, cf, preview, retry, seed=seed, device=device, source=src, min_neural_faces=1)
+            for ch in route_charts(Vc, Fc, cands, cfg, seed=seed, device=device):
                 islands += ch.islands
                 routes.append(ch.route)
                 if ch.reason:
@@ -306,4 +300,4 @@ def repair_uvs(V, F, UV, FUV=None, preset="fast", *, seed=0, device="cpu", previ
         e["flips_after"] = int((~(det2[lab == e["chart"]] > 0)).sum())
     return UVRepairResult(V=V, F=F, UV=UVo, FUV=FUVo, charts=charts, repacked=repacked, before=before, after=after,
                           time=time.perf_counter() - t0,
-                          info={"preset": preset if isinstance(preset, str) else "custom", "preview_iters": preview.iterations})
+                          info={"preset": preset if isinstance(preset, str) else "custom", "iterations": cfg.iterations})

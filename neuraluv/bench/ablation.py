@@ -225,7 +225,6 @@ def _findings(summary):
 
 def add_arguments(p):
     p.add_argument("--variants", nargs="+", default=None, metavar="V", help=f"variants (default: all of {list(VARIANTS)})")
-    p.add_argument("--iterations", type=int, default=None, help="override the preset's iteration budget")
 
 
 def run(args):

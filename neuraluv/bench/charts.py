@@ -405,7 +405,6 @@ def add_arguments(p):
                    help="meshes to cut (registry names, pv:ant/pv:airplane/pv:nut, sphere, name@N = N subdivisions); "
                         "default: cached closed registry meshes + pyvista's offline meshes")
     p.add_argument("--n-charts", type=int, default=None, help="charts to select (default 44; --quick 6)")
-    p.add_argument("--iterations", type=int, default=None, help="override the neural preset's iteration budget")
     p.add_argument("--baselines", nargs="*", default=["bff"], help="classical methods on the same charts (default: bff)")
     p.add_argument("--max-large", type=int, default=None, help="cap on charts with ≥ 10,000 faces")
 

@@ -361,7 +361,6 @@ def _figures(out, loaded, methods):
 def add_arguments(p):
     p.add_argument("--methods", nargs="+", default=None, metavar="M",
                    help=f"methods (default: {' '.join(METHODS)}; any key of neuraluv.baselines.METHODS)")
-    p.add_argument("--iterations", type=int, default=None, help="override the neural preset's iteration budget")
     p.add_argument("--no-figures", action="store_true", help="skip the map and heatmap plates")
 
 

@@ -170,7 +170,6 @@ def _findings(rows):
 def add_arguments(p):
     p.add_argument("--methods", nargs="+", default=None, metavar="M", help=f"methods (default: {' '.join(METHODS)})")
     p.add_argument("--no-neural", action="store_true", help="leave out our solver's context column")
-    p.add_argument("--iterations", type=int, default=None, help="override the neural preset's iteration budget")
 
 
 def run(args):

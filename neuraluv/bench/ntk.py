@@ -59,7 +59,6 @@ RANK_COLS = (4, 8, 16)
 def add_arguments(parser):
     """The ``bench ntk`` options beyond the shared ones (``--quick`` is the default mode)."""
     parser.add_argument("--full", action="store_true", help="the paper's 5000-iteration solves ('paper' preset)")
-    parser.add_argument("--iterations", type=int, default=None, help="override the optimisation budget")
     parser.add_argument("--samples", type=int, default=256, help="farthest-point samples (default 256)")
     parser.add_argument("--trajectory", action="store_true",
                         help="also record S(r) during a valid-ending and an invalid-ending (random-init ablation) solve")

@@ -48,7 +48,7 @@ def cmd_atlas(args):
     resolve_device(args.device)
     res, rep = atlas_file(args.input, out, report=args.report, renders=args.renders, preset=args.preset,
                           resolution=args.resolution, padding=args.padding, packer=args.packer, seed=args.seed,
-                          device=args.device, preview_iters=args.preview_iters, min_neural_faces=args.min_neural_faces,
+                          device=args.device, **_overrides(args),
                           time_budget=args.time_budget, threads=args.threads, progress=not args.quiet,
                           min_height=args.min_height)
     t = res.totals()
@@ -89,7 +89,7 @@ def cmd_repair(args):
     else:
         raise NeuralUVError(f"{inp.name}: repair needs an OBJ (vt) or GLB (TEXCOORD_0) input")
     res = repair_uvs(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device,
-                     preview_iters=args.preview_iters, threads=args.threads)
+                     threads=args.threads, **_overrides(args))
     write_atlas(out, res.V, res.F, res.UV, res.FUV)
     # verdict on the written file
     from neuraluv.metrics import face_dets
@@ -111,7 +111,7 @@ def cmd_sweep(args):
 
     res = sweep(args.inputs, args.output, scheduler=args.scheduler, n_workers=args.workers, timeout=args.timeout,
                 resume=not args.no_resume, progress=not args.quiet, preset=args.preset, packer=args.packer,
-                resolution=args.resolution, padding=args.padding, preview_iters=args.preview_iters,
+                resolution=args.resolution, padding=args.padding, iterations=args.iterations,
                 isolate=not args.in_process, out_format=args.format, limit=args.limit, seed=args.seed,
                 device=args.device, threads=args.threads)
     print(res.markdown)
@@ -119,9 +119,11 @@ def cmd_sweep(args):
     return EXIT_OK if res.summary["ok"] == res.summary["tried"] else EXIT_INVALID
 
 
+def _overrides(args):
+    return {"iterations": args.iterations} if args.iterations else {}
+
+
 def _atlas_options(p):
-    p.add_argument("--preview-iters", type=positive_int, default=None,
-                   help="iterations of each chart's preview pass (default: a fifth of the preset's, at least 20)")
     add_solver_options(p)
 
 
@@ -145,7 +147,6 @@ def register(sub):
     a.add_argument("--padding", type=nonneg_float, default=4.0, help="gap between islands in texels (default 4)")
     a.add_argument("--packer", default="shelf", choices=["shelf", "xatlas"], help="shelf (paper) or xatlas")
     a.add_argument("--renders", help="folder for checkerboard and route-coloured PNGs")
-    a.add_argument("--min-neural-faces", type=positive_int, default=3, help="smaller charts skip the network (default 3)")
     a.add_argument("--time-budget", type=positive_float, default=None, help="seconds after which remaining charts become fallbacks")
     a.add_argument("--min-height", type=nonneg_float, default=1e-6, help="faces thinner than this fraction of the diagonal are removed as slivers (default 1e-6)")
     _atlas_options(a)

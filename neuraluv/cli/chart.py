@@ -30,7 +30,8 @@ def cmd_unwrap(args):
     resolve_device(args.device)
     V, F = load_mesh(args.input)
     with torch_threads(args.threads):
-        res = unwrap(V, F, args.preset, seed=args.seed, device=args.device, progress=not args.quiet)
+        res = unwrap(V, F, args.preset, seed=args.seed, device=args.device, progress=not args.quiet,
+                     **({"iterations": args.iterations} if args.iterations else {}))
     write_obj(out, res.V, res.F, res.UV)
     if args.report:
         write_json(args.report, res.report())
@@ -50,7 +51,8 @@ def cmd_demo(args):
     V, F = datasets.procedural(args.mesh)
     print(f"demo: unwrapping the built-in '{args.mesh}' chart ({len(V)} vertices, {len(F)} faces) with preset '{args.preset}'")
     with torch_threads(args.threads):
-        res = unwrap(V, F, args.preset, seed=args.seed, device=args.device, progress=not args.quiet)
+        res = unwrap(V, F, args.preset, seed=args.seed, device=args.device, progress=not args.quiet,
+                     **({"iterations": args.iterations} if args.iterations else {}))
     write_obj(outdir / "demo.obj", res.V, res.F, res.UV)
     write_json(outdir / "demo_report.json", res.report())
     plot.save_checkerboard_transfer(outdir / "demo_checkerboard.png", res.V, res.F, res.UV)

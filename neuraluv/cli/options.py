@@ -79,6 +79,7 @@ def add_solver_options(p, *, default_preset="fast", preset_default_none=False):
     """``--preset --seed --device --threads --quiet``, the same on every command that solves charts."""
     p.add_argument("--preset", default=None if preset_default_none else default_preset, choices=list(PRESETS),
                    metavar="{" + ",".join(PRESETS) + "}", help=preset_help(default_preset))
+    p.add_argument("--iterations", type=positive_int, default=None, help="override the preset's iteration budget")
     p.add_argument("--seed", type=seed_int, default=0, help="first seed of the solver's retry schedule (default 0)")
     p.add_argument("--device", default="auto",
                    help="auto (CUDA when available, else CPU; default), cpu, cuda or cuda:N; an unavailable device is an error")

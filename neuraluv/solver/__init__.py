@@ -6,7 +6,8 @@
 ``siren``          the chart network (SIREN with a residual head)
 ``energy``         Jacobians in torch, the C² extension, E_SD, barrier, objective
 ``result``         :class:`ChartResult` (torch-free)
-``chart``          :func:`prepare_chart`, :func:`solve_chart`
+``engine``         the batched, validity-checked optimisation loop (Adam, L-BFGS)
+``chart``          :func:`prepare_chart`, :func:`solve_chart`, :func:`solve_charts`
 ``ntk``            NTK–LBO probes of the chart network (paper Table 5)
 =================  ==========================================================
 
@@ -20,10 +21,11 @@ import importlib
 from neuraluv.solver.config import PRESET_HELP, PRESETS, SolverConfig, get_config
 
 __all__ = ["SolverConfig", "PRESETS", "PRESET_HELP", "get_config", "ChartResult", "PreparedChart", "prepare_chart",
-           "solve_chart", "build_network", "resolve_device", "torch_threads"]
+           "solve_chart", "solve_charts", "build_network", "resolve_device", "torch_threads"]
 
 _LAZY = {
     "ChartResult": "result", "PreparedChart": "chart", "prepare_chart": "chart", "solve_chart": "chart",
+    "solve_charts": "chart",
     "build_network": "chart", "resolve_device": "device", "torch_threads": "device",
 }
 

@@ -1,21 +1,23 @@
-"""The neural chart solver (paper Algorithm 1).
+"""The neural chart solver (paper Algorithm 1): one chart or many.
 
 Features → SIREN → UVs → per-face Jacobians → stable E_SD + barrier, minimised
-with Adam and a cosine learning rate. Every Adam step is checked: if it flips a
-triangle (more flipped faces than before the step) — or, in the shipped
-presets, halves the smallest det J below ε or raises the loss by more than
-``loss_rise`` — the model and optimiser state are restored and the step is
-retried with a smaller learning rate. A seed/retry schedule and a marked
-fallback close the loop, so the solver never returns a silently flipped map.
+with Adam and a cosine learning rate (or L-BFGS, the ``fast`` preset). Every
+step is checked: if it flips a triangle (more flipped faces than before the
+step) — or, in the shipped presets, halves the smallest det J below ε or
+raises the loss by more than ``loss_rise`` — it is refused and retried with
+half the step. A seed/retry schedule and a marked fallback close the loop, so
+the solver never returns a silently flipped map.
 
 :func:`prepare_chart` (lines 1–3 of Algorithm 1: normalise, features, frames,
-the valid start) is shared by the solver and the NTK probes.
+the valid start) is shared by the solver and the NTK probes;
+:func:`solve_charts` solves many charts together (their networks are evaluated
+in one batched pass, :mod:`neuraluv.solver.engine`); :func:`solve_chart` is
+the one-chart case.
 """
 from __future__ import annotations
 
-import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -26,14 +28,14 @@ from neuraluv.meshfix import normalize_unit_box
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
-from neuraluv.solver.energy import alpha_schedule, jacobians_torch, objective
+from neuraluv.solver.engine import make_batch, optimise, to_module
 from neuraluv.solver.result import ChartResult
 from neuraluv.solver.siren import Siren
 from neuraluv.spectral import chart_features, lbo_eigenfunctions
 from neuraluv.topology import is_disk_like
 from neuraluv.tutte import tutte
 
-__all__ = ["PreparedChart", "prepare_chart", "build_network", "ChartResult", "solve_chart", "Snapshot"]
+__all__ = ["PreparedChart", "prepare_chart", "build_network", "ChartResult", "solve_chart", "solve_charts"]
 
 
 @dataclass
@@ -180,236 +182,26 @@ def build_network(prep, config="fast", *, seed=0, device="cpu"):
     return net.to(device)
 
 
-class Snapshot:
-    """Parameters and optimiser state saved into preallocated buffers, restorable in place.
-
-    ``save`` copies into the same buffers every time (no allocation after the
-    first call); ``restore`` copies them back. Optimiser state that did not
-    exist at ``save`` time (Adam before its first step) is removed on restore.
-
-    Examples
-    --------
-    >>> net = torch.nn.Linear(2, 1); opt = torch.optim.Adam(net.parameters())
-    >>> snap = Snapshot(net, opt); snap.save()
-    >>> w = net.weight.detach().clone()
-    >>> net(torch.ones(1, 2)).sum().backward(); opt.step()
-    >>> snap.restore(); bool(torch.equal(net.weight, w)), len(opt.state)
-    (True, 0)
-    """
-
-    def __init__(self, model, opt):
-        self.model, self.opt = model, opt
-        self.params = list(model.parameters())
-        self.p_buf = [p.detach().clone() for p in self.params]
-        self.s_buf = None
-        self.had_state = False
-
-    def save(self):
-        with torch.no_grad():
-            torch._foreach_copy_(self.p_buf, [p.detach() for p in self.params])
-        st = self.opt.state
-        self.had_state = bool(st) and all(p in st for p in self.params)
-        if self.had_state:
-            if self.s_buf is None:
-                self.s_buf = [{k: v.detach().clone() for k, v in st[p].items() if torch.is_tensor(v)} for p in self.params]
-            else:
-                for p, buf in zip(self.params, self.s_buf):
-                    for k, b in buf.items():
-                        b.copy_(st[p][k])
-
-    def restore(self):
-        with torch.no_grad():
-            torch._foreach_copy_([p.detach() for p in self.params], self.p_buf)
-        if not self.had_state:
-            for p in self.params:
-                self.opt.state.pop(p, None)
-            return
-        for p, buf in zip(self.params, self.s_buf):
-            cur = self.opt.state[p]
-            for k, b in buf.items():
-                cur[k].copy_(b)
+def _batches(preps, max_rows, max_batch):
+    """Group chart indices by vertex count so that padding stays small and a batch fits ``max_rows``."""
+    order = sorted(range(len(preps)), key=lambda i: len(preps[i].X))
+    groups, cur = [], []
+    for i in order:
+        n = len(preps[i].X)
+        if cur and (n * (len(cur) + 1) > max_rows or len(cur) >= max_batch or n > 1.5 * len(preps[cur[0]].X) + 16):
+            groups.append(cur)
+            cur = []
+        cur.append(i)
+    if cur:
+        groups.append(cur)
+    return groups
 
 
-def _cosine_lr(it, n, lr, lr_min):
-    return lr_min + 0.5 * (lr - lr_min) * (1.0 + math.cos(math.pi * min(it, n) / max(n, 1)))
-
-
-def _attempt(cfg, prep, seed, device, progress, callback, label):
-    """One optimisation run (one seed): warm-up, then validity-checked Adam steps."""
-    Xt = torch.as_tensor(prep.X, device=device)
-    F_t = torch.as_tensor(prep.F, device=device)
-    dCi = torch.as_tensor(prep.dC_inv, dtype=torch.float64, device=device)
-    A = torch.as_tensor(prep.A, dtype=torch.float64, device=device)
-    model = build_network(prep, cfg, seed=seed, device=device)
-    residual = model.residual
-    trace = {k: [] for k in ("iter", "loss", "esd", "min_det", "flips", "rejected", "lr", "time")}
-    t0 = time.perf_counter()
-
-    # --- warm-up: fit the network to the initial map (stationary in residual mode)
-    target = None if residual else prep.target
-    if target is not None and cfg.warmup_iters > 0:
-        tgt = torch.as_tensor(target, dtype=torch.float64, device=device)
-        opt_w = torch.optim.Adam(model.parameters(), lr=cfg.warmup_lr)
-        for _ in range(cfg.warmup_iters):
-            opt_w.zero_grad(set_to_none=True)
-            fit = torch.mean((model(Xt) - tgt) ** 2)
-            if fit.item() < 1e-14:
-                break
-            fit.backward()
-            opt_w.step()
-    if callback is not None:
-        callback("warmup_end", 0, model)
-
-    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, betas=tuple(cfg.betas))
-    snap = Snapshot(model, opt) if cfg.reject else None
-    n = cfg.iterations
-
-    def evaluate(s):
-        u = model(Xt)
-        return u, objective(jacobians_torch(u, F_t, dCi), A, alpha_schedule(s, n, cfg.alpha_start, cfg.alpha_end),
-                            cfg.eps_J, cfg.eps)
-
-    u, cur = evaluate(0)
-    flips_cur = int((cur.det <= 0).sum().item())
-    mind_cur = float(cur.det.min().item())
-    best = (flips_cur, float(cur.esd), u.detach().clone())
-    rejected_total = 0
-    scale = 1.0
-    stop = "budget"
-    best_hist = []
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=n, desc=label, leave=False, dynamic_ncols=True)
-    for it in range(n):
-        opt.zero_grad(set_to_none=True)
-        cur.loss.backward()
-        if snap is not None:
-            snap.save()
-        lr_it = _cosine_lr(it, n, cfg.lr, cfg.lr_min)
-        step_scale = scale
-        accepted = False
-        # the loss-rise guard compares both losses at the same barrier weight α(it)
-        alpha_it = alpha_schedule(it, n, cfg.alpha_start, cfg.alpha_end)
-        loss_limit = float(cur.loss.item()) * (1.0 + cfg.loss_rise) if cfg.loss_rise > 0 else math.inf
-        for _ in range(cfg.max_backtracks + 1):
-            for g in opt.param_groups:
-                g["lr"] = lr_it * step_scale
-            opt.step()
-            u_new, new = evaluate(it + 1)
-            flips_new = int((new.det <= 0).sum().item())
-            mind_new = float(new.det.min().item())
-            ok = bool(torch.isfinite(new.loss).item())
-            if ok and flips_cur == 0 and cfg.det_drop > 0:
-                ok = mind_new >= min(cfg.eps, cfg.det_drop * mind_cur)
-            if ok and cfg.loss_rise > 0:
-                ok = float(new.at(alpha_it).item()) <= loss_limit
-            if not cfg.reject or (ok and flips_new <= flips_cur):
-                accepted = True
-                break
-            snap.restore()
-            rejected_total += 1
-            step_scale *= cfg.backtrack
-        if not accepted:
-            stop = "stalled"
-            break
-        scale = min(1.0, step_scale * cfg.step_recover)
-        u, cur, flips_cur, mind_cur = u_new, new, flips_new, mind_new
-        esd = float(cur.esd)
-        if (flips_cur, esd) < best[:2]:
-            best = (flips_cur, esd, u.detach().clone())
-        trace["iter"].append(it + 1)
-        trace["loss"].append(float(cur.loss.item()))
-        trace["esd"].append(esd)
-        trace["min_det"].append(mind_cur)
-        trace["flips"].append(flips_cur)
-        trace["rejected"].append(rejected_total)
-        trace["lr"].append(lr_it * step_scale)
-        trace["time"].append(time.perf_counter() - t0)
-        if callback is not None:
-            callback("step", it + 1, model)
-        if bar is not None:
-            bar.update(1)
-            if it % 25 == 0:
-                bar.set_postfix(esd=f"{esd:.4g}", min_det=f"{mind_cur:.3g}", rej=rejected_total)
-        best_hist.append(best[1])
-        if cfg.early_stop and it + 1 >= max(cfg.patience, n // 2) and best[0] == 0:
-            old = best_hist[-cfg.patience]
-            if (old - best[1]) <= cfg.tol * abs(best[1]):
-                stop = "early_stop"
-                break
-    if bar is not None:
-        bar.close()
-    if callback is not None:
-        callback("end", len(trace["iter"]), model)
-    return best[2].detach().cpu().numpy(), trace, stop, model
-
-
-def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, callback=None, label="chart", check=True):
-    """Flatten one disk-like chart with the neural solver.
-
-    Parameters
-    ----------
-    V : (n,3) float array
-    F : (m,3) int array
-        A disk-like chart (one component, one boundary loop).
-    config : str or SolverConfig
-        A preset name (``"paper"``, ``"fast"``, ``"literal"``, ``"test"``) or a config.
-    seed : int
-        First seed of the retry schedule (``seed, seed+1, ...``).
-    device : str
-        ``"auto"`` (CUDA when available), ``"cpu"`` or ``"cuda"``.
-    progress : bool
-        Show a tqdm progress bar.
-    callback : callable, optional
-        ``callback(event, step, model)`` with event ``"warmup_end"``, ``"step"``
-        or ``"end"`` (used by the NTK trajectory probe).
-    check : bool
-        Run the disk-like test first (raises :class:`TopologyError`).
-
-    Returns
-    -------
-    ChartResult
-        ``status == "neural"`` with a valid map, or ``"fallback"`` with the
-        reason and the best map found (the Tutte map when it is valid).
-
-    Notes
-    -----
-    Algorithm 1: normalise, build features, precompute frames, Tutte map,
-    warm-up, then for each iteration an Adam step on
-    ``Σ_t A_t ‖J_t‖²(1 + q(det J_t)) + α(s) Σ_t [ε − det J_t]₊²`` that is kept
-    only if it does not flip a triangle (nor trip the ``det_drop`` /
-    ``loss_rise`` guards); otherwise the state is restored and the step
-    retried with half the learning rate. A Tutte start with min det J below
-    ``relax_below`` is first un-crushed by SLIM (``start_relax``).
-
-    Examples
-    --------
-    >>> from neuraluv.datasets import spherical_cap
-    >>> V, F = spherical_cap(n_rings=5)
-    >>> res = solve_chart(V, F, "test", device="cpu")
-    >>> res.status, res.metrics["flips"]
-    ('neural', 0)
-    """
-    t_start = time.perf_counter()
-    cfg = get_config(config)
-    dev = resolve_device(device)
-    prep = prepare_chart(V, F, cfg, check=check, label=label)
+def _result(cfg, prep, attempts, log, t_start, device):
+    """The ChartResult of one chart from its attempts: neural, or a marked fallback with its reason."""
     V, F, s = prep.V, prep.F, prep.scale
-    attempts, log = [], []
-    for a in range(cfg.retries + 1):
-        c = replace(cfg, lr=cfg.lr * (0.5**a))
-        uv_n, trace, stop, model = _attempt(c, prep, seed + a, dev, progress, callback, f"{label} seed {seed + a}")
-        uv = uv_n * s
-        m = distortion_metrics(V, F, uv)
-        attempts.append((m, uv, trace, stop, seed + a, model))
-        log.append({"seed": seed + a, "lr": c.lr, "stop": stop, "iterations": len(trace["iter"]),
-                    "rejected": trace["rejected"][-1] if trace["rejected"] else 0, "valid": m["valid"], "flips": m["flips"]})
-        if m["valid"]:
-            break
     best = min(attempts, key=lambda t: (not t[0]["valid"], t[0]["flips"], t[0]["esd"]))
-    m, uv, trace, stop, used_seed, model = best
+    m, uv, trace, stop, used_seed, theta = best
     neural_uv = uv
     start, sm = prep.start, prep.start_metrics
     status, reason = "neural", ""
@@ -436,20 +228,162 @@ def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, c
                 f"no flip-free map found after {len(attempts)} attempts (best has {m['flips']} flipped faces; "
                 f"Tutte start has {sm['flips']}): the chart may be degenerate"
             )
+    residual = cfg.residual and cfg.init == "tutte"
+    base = torch.as_tensor(prep.u_start, dtype=torch.float64, device=device) if residual else None
     return ChartResult(
-        uv=uv,
-        metrics=m,
-        status=status,
-        reason=reason,
-        trace=trace,
-        time=time.perf_counter() - t_start,
-        seed=used_seed,
-        attempts=len(attempts),
-        stop=stop,
-        config=cfg.as_dict(),
-        network=model,
-        start=start,
-        attempt_metrics=[a[0] for a in attempts],
-        neural_uv=neural_uv,
-        attempt_log=log,
+        uv=uv, metrics=m, status=status, reason=reason, trace=trace, time=time.perf_counter() - t_start,
+        seed=used_seed, attempts=len(attempts), stop=stop, config=cfg.as_dict(),
+        network=to_module(theta, prep.X.shape[1], cfg, base), start=start,
+        attempt_metrics=[a[0] for a in attempts], neural_uv=neural_uv, attempt_log=log,
     )
+
+
+def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False, callback=None, labels=None,
+                 check=True, deadline=None, max_rows=60000, max_batch=512, preps=None):
+    """Flatten many disk-like charts, their networks optimised together in batches.
+
+    Parameters
+    ----------
+    charts : list of (V (n,3), F (m,3))
+        Disk-like charts (None when ``preps`` is given).
+    config : str or SolverConfig
+    seed : int
+        First seed of every chart's retry schedule (``seed, seed+1, ...``).
+    device : str
+        ``"auto"`` (CUDA when available), ``"cpu"`` or ``"cuda"``.
+    progress : bool
+        A tqdm bar over the first chart's steps (one chart) or over charts (several).
+    callback : callable, optional
+        ``callback(event, step, model)`` — only for a single chart (see :func:`solve_chart`).
+    labels : list of str, optional
+        Names used in error messages.
+    check : bool
+        Run the disk-like test first (raises :class:`TopologyError`).
+    deadline : float, optional
+        ``time.perf_counter()`` value at which every running optimisation stops
+        (its best map so far is used, ``stop == "time"``).
+    max_rows, max_batch : int
+        A batch holds at most ``max_batch`` charts and ``max_rows`` padded vertex rows.
+    preps : list of PreparedChart, optional
+        Already prepared charts (skips :func:`prepare_chart`).
+
+    Returns
+    -------
+    list of ChartResult
+        In the order of ``charts``; ``time`` is each chart's share of its batch's wall time.
+    """
+    t_start = time.perf_counter()
+    cfg = get_config(config)
+    dev = resolve_device(device)
+    n_charts = len(preps) if preps is not None else len(charts)
+    labels = labels or [f"chart {i}" for i in range(n_charts)]
+    if preps is None:
+        preps = [prepare_chart(V, F, cfg, check=check, label=lab) for (V, F), lab in zip(charts, labels)]
+    if callback is not None and len(preps) != 1:
+        raise ValueError("callback is supported for a single chart only")
+    t_prep = time.perf_counter() - t_start
+    residual = cfg.residual and cfg.init == "tutte"
+    attempts = [[] for _ in preps]
+    logs = [[] for _ in preps]
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        if len(preps) == 1:
+            bar = tqdm(total=cfg.iterations, desc=labels[0], leave=False, dynamic_ncols=True)
+        else:
+            bar = tqdm(total=len(preps), desc="charts", leave=False, dynamic_ncols=True)
+    todo = list(range(len(preps)))
+    chart_time = np.zeros(len(preps))
+    for a in range(cfg.retries + 1):
+        if not todo:
+            break
+        for group in _batches([preps[i] for i in todo], max_rows, max_batch):
+            idx = [todo[j] for j in group]
+            tb = time.perf_counter()
+            batch = make_batch([preps[i] for i in idx], residual=residual, device=dev)
+            res = optimise(batch, cfg, [seed + a] * len(idx), lr_scale=[0.5**a] * len(idx), callback=callback,
+                           progress=bar if len(preps) == 1 else None, deadline=deadline)
+            for k, i in enumerate(idx):
+                p = preps[i]
+                uv = res.best_uv[k, : len(p.X)] * p.scale
+                m = distortion_metrics(p.V, p.F, uv)
+                tr = res.traces[k]
+                attempts[i].append((m, uv, tr, res.stop[k], seed + a, res.theta[k]))
+                logs[i].append({"seed": seed + a, "lr": cfg.lr * 0.5**a, "stop": res.stop[k], "iterations": len(tr["iter"]),
+                                "rejected": tr["rejected"][-1] if tr["rejected"] else 0, "valid": m["valid"],
+                                "flips": m["flips"]})
+            dt = time.perf_counter() - tb
+            w = np.array([len(preps[i].X) for i in idx], float)
+            chart_time[idx] += dt * w / w.sum()
+            if bar is not None and len(preps) > 1:
+                bar.update(sum(1 for i in idx if attempts[i][-1][0]["valid"] or a == cfg.retries))
+        todo = [i for i in todo if not attempts[i][-1][0]["valid"]]
+        if deadline is not None and time.perf_counter() > deadline:
+            break
+    if bar is not None:
+        bar.close()
+    share = t_prep / max(len(preps), 1)
+    out = []
+    for i, p in enumerate(preps):
+        r = _result(cfg, p, attempts[i], logs[i], time.perf_counter(), dev)
+        r.time = float(chart_time[i] + share)
+        out.append(r)
+    return out
+
+
+def solve_chart(V, F, config="fast", *, seed=0, device="auto", progress=False, callback=None, label="chart", check=True,
+                deadline=None):
+    """Flatten one disk-like chart with the neural solver.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+        A disk-like chart (one component, one boundary loop).
+    config : str or SolverConfig
+        A preset name (``"paper"``, ``"fast"``, ``"literal"``, ``"test"``) or a config.
+    seed : int
+        First seed of the retry schedule (``seed, seed+1, ...``).
+    device : str
+        ``"auto"`` (CUDA when available), ``"cpu"`` or ``"cuda"``.
+    progress : bool
+        Show a tqdm progress bar.
+    callback : callable, optional
+        ``callback(event, step, model)`` with event ``"warmup_end"``, ``"step"``
+        or ``"end"`` (used by the NTK trajectory probe and the film strips);
+        ``model`` is a :class:`~neuraluv.solver.siren.Siren` holding the current weights.
+    check : bool
+        Run the disk-like test first (raises :class:`TopologyError`).
+    deadline : float, optional
+        ``time.perf_counter()`` value at which the optimisation stops with its best map so far.
+
+    Returns
+    -------
+    ChartResult
+        ``status == "neural"`` with a valid map, or ``"fallback"`` with the
+        reason and the best map found (the Tutte map when it is valid).
+
+    Notes
+    -----
+    Algorithm 1: normalise, build features, precompute frames, Tutte map,
+    warm-up, then for each iteration a step on
+    ``Σ_t A_t ‖J_t‖²(1 + q(det J_t)) + α(s) Σ_t [ε − det J_t]₊²`` that is kept
+    only if it does not flip a triangle (nor trip the ``det_drop`` /
+    ``loss_rise`` guards); otherwise it is retried with half the step. A Tutte
+    start with min det J below ``relax_below`` is first un-crushed by SLIM
+    (``start_relax``).
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import spherical_cap
+    >>> V, F = spherical_cap(n_rings=5)
+    >>> res = solve_chart(V, F, "test", device="cpu")
+    >>> res.status, res.metrics["flips"]
+    ('neural', 0)
+    """
+    t0 = time.perf_counter()
+    res = solve_charts([(V, F)], config, seed=seed, device=device, progress=progress, callback=callback, labels=[label],
+                       check=check, deadline=deadline)[0]
+    res.time = time.perf_counter() - t0
+    return res

@@ -38,15 +38,22 @@ class SolverConfig:
     max_backtracks, backtrack : halvings of the step allowed per iteration.
     step_recover : after an accepted step the step scale grows by this factor
         (capped at 1); 1.0 keeps every reduction for the rest of the solve.
-    early_stop, patience, tol : stop when the best E_SD improved by less than
-        ``tol`` (relative) over the last ``patience`` iterations (checked only
-        after half the budget: trajectories often plateau early, then improve).
+    early_stop, patience, tol, early_after : stop when the best E_SD improved by
+        less than ``tol`` (relative) over the last ``patience`` iterations,
+        checked from ``early_after`` × the budget on (Adam's trajectories often
+        plateau early, then improve: 0.5 by default).
     retries : extra attempts (next seed, halved learning rate) if a solve ends invalid.
     loss_rise : not in the paper's text. A step is also rejected when it raises the
         loss by more than this fraction (0 disables the guard). Algorithm 1
         already rejects on "quality thresholds"; without this guard Adam's
         accepted overshoots (E_SD excursions from ~5 to 10–1,000 when a
         triangle nearly collapses) cost hundreds of iterations each.
+    optimizer : ``"adam"`` (the paper's) or ``"lbfgs"`` (limited-memory BFGS whose
+        line-search trials pass the same validity checks; ``lr`` is then the
+        length of the first steepest-descent step, ``lr_min`` unused).
+    history : L-BFGS memory (curvature pairs kept).
+    armijo : L-BFGS sufficient-decrease constant ``c₁`` (a trial must lower the
+        loss by ``c₁ t ∇L·d``; replaces ``loss_rise``).
     start_relax, relax_below : not in the paper (``literal`` preset: off). When the
         Tutte start's smallest det J is below ``relax_below`` (default ``ε_J``,
         where the C² extension replaces the true energy), it is un-crushed by
@@ -84,9 +91,13 @@ class SolverConfig:
     early_stop: bool = False
     patience: int = 100
     tol: float = 1e-3
+    early_after: float = 0.5
     retries: int = 2
     start_relax: int = 100
     relax_below: float = 1e-4
+    optimizer: str = "adam"
+    history: int = 30
+    armijo: float = 1e-4
 
     def as_dict(self):
         return asdict(self)
@@ -94,17 +105,23 @@ class SolverConfig:
 
 #: Named configurations.
 #:
-#: ``paper``: the published recipe (5,000 iterations) with the stated,
-#: measured deviations of the defaults above: Adam beta2 = 0.95, the
-#: det-drop and loss-rise rejection guards, and a crushed Tutte start
-#: un-crushed by SLIM (docs/RESULTS.md). ``literal``: the paper's text only
-#: (PyTorch Adam defaults, rejection on flips alone, plain Tutte start), kept
-#: to show what the deviations buy. ``fast``: the same solver, at most 2,000
-#: iterations with early stopping. ``test``: a tiny network for CI.
+#: ``paper``: the published network and budget (5x256 SIREN, ω₀ = 15, 5,000
+#: Adam iterations) with the stated, measured deviations of the defaults
+#: above: Adam beta2 = 0.95, the det-drop and loss-rise rejection guards, and
+#: a crushed Tutte start un-crushed by SLIM (docs/RESULTS.md). ``literal``:
+#: the paper's text only (PyTorch Adam defaults, rejection on flips alone,
+#: plain Tutte start), kept to show what the deviations buy. ``fast``: the
+#: same recipe (SIREN on LBO features, residual on the Tutte start, C²
+#: objective + barrier, validity-checked steps, retries, marked fallbacks)
+#: with a smaller, higher-bandwidth network (4x64, ω₀ = 45) optimised by
+#: L-BFGS whose line-search trials pass the same checks; chosen from the
+#: Pareto study in results/speed/pareto.md. ``test``: a tiny network for
+#: unit tests and doctests only.
 PRESETS = {
     "paper": SolverConfig(),
     "literal": SolverConfig(betas=(0.9, 0.999), det_drop=0.0, loss_rise=0.0, start_relax=0),
-    "fast": SolverConfig(iterations=2000, early_stop=True, patience=300, tol=1e-3),
+    "fast": SolverConfig(width=64, n_layers=4, omega0=45.0, optimizer="lbfgs", lr=1e-2, history=30,
+                         iterations=2000, early_stop=True, patience=200, tol=1e-3, early_after=0.1),
     "test": SolverConfig(k=8, width=32, n_layers=3, iterations=60, warmup_iters=20, patience=20),
 }
 
@@ -113,7 +130,7 @@ PRESETS = {
 PRESET_HELP = {
     "paper": "the published network and budget (5x256 SIREN, 5,000 Adam iterations) with the stated deviations",
     "literal": "the paper's text only (Adam defaults, rejection on flips alone, plain Tutte start)",
-    "fast": "the paper's solver on a short validated budget (default)",
+    "fast": "the default: the paper's recipe with a 4x64 SIREN (omega0 45) and L-BFGS, <= 2,000 validated steps",
     "test": "a tiny network for unit tests and doctests (not for real use)",
 }
 
