@@ -1,7 +1,7 @@
 """Acceptance run for atlas construction, UV repair and bad inputs.
 
     NEURALUV_DATA=/tmp/nuvdata nice -n 10 .venv/bin/python data_scripts/atlas_acceptance.py \
-        [-o /tmp/atlas_acceptance] [--workers 2] [--preset test] [--preview-iters 20] [--n-generated 50]
+        [-o /tmp/atlas_acceptance] [--workers 2] [--preset fast] [--n-generated 50]
 
 1. Atlases (via `neuraluv.atlas.sweep` on a dask LocalCluster, one subprocess per
    asset) every cached closed registry mesh (datasets.CLOSED), pyvista's bundled
@@ -68,13 +68,14 @@ def _table(label, rows):
     cov = all(r.get("ok") for r in rows)
     return (f"| {label} | {s['tried']} | {s['ok']} | {s['faces']:,} | {s['flips']} | "
             f"{sum(max(int(r['overlaps']), 0) for r in ok)} | {'100%' if cov else 'FAIL'} | "
-            f"{100 * s['neural_share']:.1f}/{100 * s['fallback_share']:.1f}% | {s['median_time']:.1f}s |"), s
+            f"{100 * s['neural_share']:.1f}/{100 * s['exact_share']:.1f}/{100 * s['fallback_share']:.1f}% | "
+            f"{s['median_time']:.1f}s |"), s
 
 
 def run_atlases(groups, out, args):
     from neuraluv.atlas.sweep import sweep
 
-    kw = dict(preset=args.preset, preview_iters=args.preview_iters, resolution=1024, padding=4)
+    kw = dict(preset=args.preset, resolution=1024, padding=4)
     all_rows = {}
     for g, paths in groups.items():
         if not paths:
@@ -89,7 +90,7 @@ def run_atlases(groups, out, args):
         res = sweep(glb, out / "glb", n_workers=args.workers, timeout=args.timeout, progress=False,
                     out_format="glb", label="glb", **kw)
         all_rows["glb (read back)"] = res.rows
-    print("\n| Set | Tried | OK | Faces | Flips | Overlaps | Coverage | Neural/fallback faces | Med. time |")
+    print("\n| Set | Tried | OK | Faces | Flips | Overlaps | Coverage | Neural/exact/fallback faces | Med. time |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     every = []
     for g, rows in all_rows.items():
@@ -179,7 +180,7 @@ def run_bad(out):
         else:
             p.write_text(text)
         pr = subprocess.run([sys.executable, "-m", "neuraluv.cli", "atlas", str(p), "-o", str(d / (p.stem + "_out.obj")),
-                             "--preset", "test", "--quiet"], capture_output=True, text=True)
+                             "--quiet"], capture_output=True, text=True)
         err = pr.stderr.strip().splitlines()
         good = (pr.returncode == 2 and len(err) == 1 and err[0].startswith("neuraluv: error:")) or pr.returncode == 0
         ok_all &= good
@@ -192,8 +193,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("-o", "--output", default=os.path.join(tempfile.gettempdir(), "atlas_acceptance"))
     p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--preset", default="test")
-    p.add_argument("--preview-iters", type=int, default=20)
+    p.add_argument("--preset", default="fast")
     p.add_argument("--timeout", type=float, default=900)
     p.add_argument("--n-generated", type=int, default=50)
     p.add_argument("--skip-atlas", action="store_true")

@@ -235,3 +235,21 @@ def test_exact_unfold_of_strips_is_an_isometry():
     assert unfold_tree(*disk(n_rings=2)) is None  # interior vertices: no exact unfold
     res = route_chart(Vc, Fl, np.arange(len(Fl)), get_config("test"))
     assert res.route == "exact" and res.method == "exact-unfold" and res.metrics["esd"] == pytest.approx(4.0)
+
+
+def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
+    """Routing bisects a failing candidate and solves the halves before falling back."""
+    from neuraluv.atlas import routing
+
+    real = routing.boundary_is_simple
+    V, F = disk(n_rings=5)
+    whole = len(F)
+
+    def fails_whole(UV, Fl):  # pretend the neural map of the whole chart crosses itself
+        return False if len(Fl) == whole else real(UV, Fl)
+
+    monkeypatch.setattr(routing, "boundary_is_simple", fails_whole)
+    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], get_config("test", iterations=20))
+    assert len(charts) >= 2 and all(c.route in ("neural", "exact") for c in charts)
+    assert sorted(np.concatenate([c.faces for c in charts]).tolist()) == list(range(len(F)))
+    assert all("split after: neural map overlaps itself" in c.source for c in charts)

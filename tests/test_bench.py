@@ -183,3 +183,29 @@ def test_cli_bench_runs_and_resumes(tmp_path, capsys):
 def test_unknown_benchmark_method_is_a_user_error(tmp_path, capsys):
     assert main(["bench", "compact", "--quick", "--methods", "nope", "-o", str(tmp_path)]) == 2
     assert "unknown method" in capsys.readouterr().err
+
+
+def test_speed_quick_writes_the_table_with_floor_split_and_slim(tmp_path):
+    from neuraluv.bench.speed import bench
+
+    res = bench(["glove"], ["fast"], quick=True, output=tmp_path, show_progress=False)
+    (row,) = res.rows
+    assert row["floor_ms"] > 0 and row["per_it_ms"] >= row["floor_ms"] * 0.5
+    parts = sum(row[f"{k}_ms"] for k in ("forward", "backward", "objective", "optimiser", "bookkeeping"))
+    assert parts == pytest.approx(row["per_it_ms"], rel=1e-6)  # the split adds up to the per-iteration time
+    assert row["flips"] == 0 and row["slim1k_s"] > 0 and row["ratio_slim1k"] > 0
+    for f in ("speed.csv", "speed.md", "speed.png"):
+        assert (tmp_path / f).stat().st_size > 100
+    assert "× SLIM-1k" in res.markdown and "Machine:" in (tmp_path / "speed.md").read_text()
+
+
+def test_grown_disk_is_a_disk_of_about_the_asked_size():
+    from neuraluv.bench.speed import grown_disk
+    from neuraluv.datasets import sphere
+    from neuraluv.topology import is_disk_like, submesh
+
+    V, F = sphere(4)
+    for n in (100, 1500):
+        f = grown_disk(V, F, n)
+        vi, Fl = submesh(F, f)
+        assert is_disk_like(V[vi], Fl)[0] and n <= len(f) < 3 * n

@@ -6,7 +6,7 @@ import numpy as np
 from neuraluv.meshfix import normalize_unit_box
 from neuraluv.topology import components, face_components, is_disk_like, submesh
 
-__all__ = ["seam_charts", "bisect_faces", "chart_candidates"]
+__all__ = ["seam_charts", "bisect_faces", "split_into_disks", "chart_candidates"]
 
 
 def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
@@ -77,6 +77,36 @@ def bisect_faces(V, F, fidx):
         n, lab = face_components(F[h])
         parts += [h[lab == k] for k in range(n)]
     return parts
+
+
+def split_into_disks(V, F, fidx, note="split"):
+    """Bisect a face set until every piece is disk-like.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    fidx : (k,) int array
+    note : str
+        Source note of the pieces.
+
+    Returns
+    -------
+    list of (fidx, source) pairs covering ``fidx`` exactly once; a disk-like input
+    is halved once (callers split a chart that failed as a whole).
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> V, F = disk(n_rings=4)
+    >>> parts = split_into_disks(V, F, np.arange(len(F)))
+    >>> len(parts) >= 2, sum(len(p) for p, _ in parts) == len(F)
+    (True, True)
+    """
+    out = []
+    for p in bisect_faces(V, F, np.asarray(fidx, np.int64)):
+        _make_disks(V, F, p, note, out)
+    return out
 
 
 def _make_disks(V, F, fidx, note, out, depth=0):

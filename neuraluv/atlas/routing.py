@@ -243,7 +243,7 @@ def _finish(chart, V, t0):
     return chart
 
 
-def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadline=None, progress=False):
+def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadline=None, progress=False, splits=2):
     """Route disk-like candidates: exact unfold, neural (batched), or a marked fallback.
 
     Parameters
@@ -260,11 +260,16 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
         ``time.perf_counter()`` value: solves still running then stop with their best valid map;
         charts not started become marked fallbacks ("time budget").
     progress : bool
+    splits : int
+        A candidate whose neural map is invalid or overlaps itself is bisected into
+        disk-like halves that are routed again, up to this many times, before it
+        becomes a marked fallback.
 
     Returns
     -------
     list of AtlasChart
-        In the order of ``candidates``.
+        In the order of the candidates, a split candidate replaced by its pieces
+        (every face is in exactly one chart).
 
     Examples
     --------
@@ -275,15 +280,37 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
     >>> [(x.route, x.method, x.metrics["flips"]) for x in c]
     [('neural', 'neural', 0), ('exact', 'exact-unfold', 0)]
     """
+    from neuraluv.atlas.candidates import split_into_disks
     from neuraluv.solver.chart import prepare_chart, solve_charts
     from neuraluv.solver.config import get_config
 
     cfg = get_config(config)
     t0 = time.perf_counter()
-    out = [None] * len(candidates)
-    todo, preps, why = [], [], {}
-    for k, (fidx, src) in enumerate(candidates):
-        fidx = np.asarray(fidx, np.int64)
+    done, todo = [], [(np.asarray(f, np.int64), s, "") for f, s in candidates]
+    for level in range(splits + 1):
+        out, retry = _route_round(V, F, todo, cfg, seed, device, deadline, progress and level == 0, t0,
+                                  prepare_chart, solve_charts, last=level == splits)
+        done += [c for c in out if c is not None]
+        todo = []
+        for fidx, src, why in retry:
+            if len(fidx) < 2:
+                method, islands, reason = fallback_islands(V, F, fidx, why)
+                done.append(_finish(AtlasChart(fidx, "fallback", method, reason, src, islands), V, t0))
+                continue
+            todo += [(p, f"{src}; split after: {why}", "") for p, _ in split_into_disks(V, F, fidx)]
+        if not todo:
+            break
+    order = {tuple(np.asarray(f, np.int64)[:1]): i for i, (f, _) in enumerate(candidates) if len(f)}
+    done.sort(key=lambda c: order.get(tuple(c.faces[:1]), len(candidates)))
+    return done
+
+
+def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_chart, solve_charts, last):
+    """One routing round; returns (charts, [(fidx, source, why) to split and retry])."""
+    out = [None] * len(todo)
+    retry, retried = [], set()
+    idx, preps, why = [], [], {}
+    for k, (fidx, src, note) in enumerate(todo):
         vi, Fl = submesh(F, fidx)
         uv = unfold_tree(V[vi], Fl)
         if uv is not None and boundary_is_simple(uv, Fl):
@@ -293,18 +320,17 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
             why[k] = "exact unfold overlaps itself; "
         try:
             preps.append(prepare_chart(V[vi], Fl, cfg, check=False, label=f"chart {k}"))
-            todo.append(k)
+            idx.append(k)
         except Exception as exc:  # degenerate input for the eigensolver etc.: a marked fallback, never a crash
             why[k] = why.get(k, "") + f"neural solver error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
     results = []
-    if todo and (deadline is None or time.perf_counter() < deadline):
+    if idx and (deadline is None or time.perf_counter() < deadline):
         results = solve_charts(None, cfg, preps=preps, seed=seed, device=device, deadline=deadline, progress=progress)
     else:
-        for k in todo:
+        for k in idx:
             why[k] = why.get(k, "") + "time budget exhausted before the neural solve"
-    for k, res in zip(todo, results):
-        fidx = np.asarray(candidates[k][0], np.int64)
-        src = candidates[k][1]
+    for k, res in zip(idx, results):
+        fidx, src, _ = todo[k]
         vi, Fl = submesh(F, fidx)
         solver = res.summary()
         solver.pop("metrics", None)
@@ -315,14 +341,19 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
             why[k] = why.get(k, "") + f"neural map overlaps itself in UV ({100 * self_overlap(res.uv, Fl):.3g}% of its area)"
         else:
             why[k] = why.get(k, "") + f"neural: {res.reason}"
+        timed_out = deadline is not None and time.perf_counter() > deadline
+        if not last and not timed_out:
+            retry.append((fidx, src, why[k]))
+            retried.add(k)
+            continue
         method, islands, reason = fallback_islands(V, F, fidx, why[k])
         out[k] = _finish(AtlasChart(fidx, "fallback", method, reason, src, islands, solver=solver), V, t0)
-    for k in range(len(candidates)):
-        if out[k] is None:
-            fidx = np.asarray(candidates[k][0], np.int64)
+    for k in range(len(todo)):
+        if out[k] is None and k not in retried:
+            fidx, src, _ = todo[k]
             method, islands, reason = fallback_islands(V, F, fidx, why.get(k, "not solved"))
-            out[k] = _finish(AtlasChart(fidx, "fallback", method, reason, candidates[k][1], islands), V, t0)
-    return out
+            out[k] = _finish(AtlasChart(fidx, "fallback", method, reason, src, islands), V, t0)
+    return out, retry
 
 
 def route_chart(V, F, fidx, config="fast", *, seed=0, device="cpu", source="component", deadline=None):

@@ -183,12 +183,17 @@ def build_network(prep, config="fast", *, seed=0, device="cpu"):
 
 
 def _batches(preps, max_rows, max_batch):
-    """Group chart indices by vertex count so that padding stays small and a batch fits ``max_rows``."""
+    """Group chart indices by vertex count so that padding stays small and a batch fits ``max_rows``.
+
+    Charts in a batch have at most 2.5× (plus 32) the vertices of its smallest
+    chart: padding costs network time, but every batch costs a fixed
+    per-step overhead too, which dominates for charts of a few dozen vertices.
+    """
     order = sorted(range(len(preps)), key=lambda i: len(preps[i].X))
     groups, cur = [], []
     for i in order:
         n = len(preps[i].X)
-        if cur and (n * (len(cur) + 1) > max_rows or len(cur) >= max_batch or n > 1.5 * len(preps[cur[0]].X) + 16):
+        if cur and (n * (len(cur) + 1) > max_rows or len(cur) >= max_batch or n > 2.5 * len(preps[cur[0]].X) + 32):
             groups.append(cur)
             cur = []
         cur.append(i)

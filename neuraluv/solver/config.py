@@ -120,8 +120,8 @@ class SolverConfig:
 PRESETS = {
     "paper": SolverConfig(),
     "literal": SolverConfig(betas=(0.9, 0.999), det_drop=0.0, loss_rise=0.0, start_relax=0),
-    "fast": SolverConfig(width=64, n_layers=4, omega0=45.0, optimizer="lbfgs", lr=1e-2, history=30,
-                         iterations=2000, early_stop=True, patience=200, tol=1e-3, early_after=0.1),
+    "fast": SolverConfig(width=64, n_layers=4, omega0=60.0, optimizer="lbfgs", lr=1e-2, history=30,
+                         iterations=2000, early_stop=True, patience=200, tol=2e-3, early_after=0.1),
     "test": SolverConfig(k=8, width=32, n_layers=3, iterations=60, warmup_iters=20, patience=20),
 }
 

@@ -1,0 +1,108 @@
+"""The batched engine: stacked per-chart networks, per-chart acceptance, compaction, L-BFGS in compact form."""
+import numpy as np
+import pytest
+import torch
+
+from neuraluv import datasets
+from neuraluv.solver import get_config, prepare_chart, solve_charts
+from neuraluv.solver.engine import LBFGSMemory, forward, init_params, make_batch, optimise, param_count, to_module
+
+
+def _two_loop(g, pairs, gamma):
+    """The textbook L-BFGS two-loop recursion (Nocedal & Wright, Alg. 7.4): H g."""
+    q = g.clone()
+    alphas = []
+    for s, y in reversed(pairs):
+        a = (s @ q) / (y @ s)
+        q = q - a * y
+        alphas.append(a)
+    r = gamma * q
+    for (s, y), a in zip(pairs, reversed(alphas)):
+        b = (y @ r) / (y @ s)
+        r = r + s * (a - b)
+    return r
+
+
+def test_compact_lbfgs_matches_the_two_loop_recursion():
+    gen = torch.Generator().manual_seed(0)
+    B, P, m = 3, 40, 4
+    mem = LBFGSMemory(B, P, m, dtype=torch.float64, device="cpu")
+    pairs = [[] for _ in range(B)]
+    for step in range(6):  # more pushes than slots: the ring buffer wraps
+        s = torch.randn(B, P, generator=gen, dtype=torch.float64)
+        y = s + 0.3 * torch.randn(B, P, generator=gen, dtype=torch.float64)  # positive curvature
+        acc = torch.tensor([True, step % 2 == 0, True])  # chart 1 moves every other round only
+        mem.push(s, y, acc)
+        for b in range(B):
+            if acc[b]:
+                pairs[b].append((s[b], y[b]))
+    g = torch.randn(B, P, generator=gen, dtype=torch.float64)
+    Hg = mem.apply(g)
+    for b in range(B):
+        # the ring keeps the last m rounds: a chart that skipped rounds keeps fewer pairs
+        kept = 6 - m
+        ref_pairs = [p for p in pairs[b]][-m:] if b != 1 else pairs[b][-2:]
+        s_last, y_last = ref_pairs[-1]
+        gamma = float((s_last @ y_last) / (y_last @ y_last))
+        assert torch.allclose(Hg[b], _two_loop(g[b], ref_pairs, gamma), rtol=1e-9, atol=1e-9), (b, kept)
+
+
+def test_flat_network_is_the_siren_module():
+    V, F = datasets.spherical_cap(4)
+    cfg = get_config("fast")
+    p = prepare_chart(V, F, cfg)
+    b = make_batch([p])
+    theta = init_params([3], b.X.shape[2], cfg)
+    assert theta.shape == (1, param_count(b.X.shape[2], cfg.width, cfg.n_layers))
+    net = to_module(theta[0], b.X.shape[2], cfg, b.base[0])
+    u = forward(theta, b.X, b.base, width=cfg.width, n_layers=cfg.n_layers, omega0=cfg.omega0)[0]
+    assert torch.allclose(u, net(b.X[0]), atol=1e-6)
+    # the residual head starts at zero: the network reproduces the start exactly
+    assert torch.equal(u, b.base[0])
+
+
+@pytest.mark.parametrize("preset", ["test", "fast"])
+def test_many_charts_in_one_batch_each_valid_with_its_own_trace(preset):
+    charts = [datasets.spherical_cap(n) for n in (3, 4, 5)] + [datasets.glove(res=2), datasets.disk(3)]
+    cfg = get_config(preset, iterations=80, retries=0)
+    res = solve_charts(charts, cfg, device="cpu")
+    assert len(res) == len(charts)
+    for r, (V, F) in zip(res, charts):
+        assert r.status == "neural" and r.metrics["flips"] == 0 and r.uv.shape == (len(V), 2)
+        t = r.trace
+        assert 0 < len(t["iter"]) <= 80 and len(t["esd"]) == len(t["iter"]) and all(f == 0 for f in t["flips"])
+        assert min(t["esd"]) <= r.metrics["esd"] * (1 + 1e-9)  # the returned map is the best iterate
+
+
+def test_compaction_keeps_the_results_of_finished_charts():
+    """Charts stopping at different times leave the batch; every chart still gets its own best map."""
+    charts = [datasets.spherical_cap(3), datasets.glove(res=2), datasets.spherical_cap(4), datasets.disk(2)]
+    cfg = get_config("fast", iterations=300, patience=20, tol=0.05, early_after=0.0)
+    preps = [prepare_chart(V, F, cfg) for V, F in charts]
+    batch = make_batch(preps)
+    r = optimise(batch, cfg, [0] * len(preps))
+    its = [len(t["iter"]) for t in r.traces]
+    assert len(set(its)) > 1 and min(its) < 300  # charts stopped at different rounds
+    for k, p in enumerate(preps):
+        n = len(p.X)
+        assert np.all(np.isfinite(r.best_uv[k, :n]))
+        from neuraluv.metrics import distortion_metrics
+
+        assert distortion_metrics(p.Vn, p.F, r.best_uv[k, :n])["flips"] == 0
+
+
+def test_deadline_stops_every_chart_with_a_valid_map():
+    import time
+
+    V, F = datasets.glove()
+    res = solve_charts([(V, F)], get_config("fast", iterations=100000, early_stop=False), device="cpu",
+                       deadline=time.perf_counter() + 1.0)[0]
+    assert res.stop == "time" and res.metrics["flips"] == 0 and res.time < 10
+
+
+def test_fast_preset_is_the_papers_recipe_with_a_smaller_network_and_lbfgs():
+    f, p = get_config("fast"), get_config("paper")
+    assert (f.width, f.n_layers, f.omega0, f.optimizer) == (64, 4, 60.0, "lbfgs")
+    same = ("k", "init", "residual", "eps_J", "eps", "alpha_start", "alpha_end", "reject", "det_drop", "start_relax",
+            "relax_below", "retries")
+    assert all(getattr(f, a) == getattr(p, a) for a in same)
