@@ -123,7 +123,8 @@ def run_repair(out, args):
     from neuraluv import datasets
     from neuraluv.io import read_obj, write_obj
     from neuraluv.metrics import distortion_metrics
-    from neuraluv.atlas.uvrepair import face_dets, uv_charts
+    from neuraluv.atlas.validate import uv_islands
+    from neuraluv.metrics import face_dets
 
     if not (datasets.available("camel_b") and datasets.available("bob_tri")):
         print("repair: camel_b/bob_tri not cached, skipped")
@@ -148,7 +149,7 @@ def run_repair(out, args):
     V1, F1, UV1, FUV1 = read_obj(inp)
     V2, F2, UV2, FUV2 = read_obj(outp)
     det1 = face_dets(V1, F1, UV1, FUV1)
-    n, lab = uv_charts(F1, FUV1)
+    n, lab = uv_islands(FUV1)
     valid_charts = [c for c in range(n) if (det1[lab == c] > 0).all()]
     vf = np.isin(lab, valid_charts)
     identical = bool(np.array_equal(FUV1[vf], FUV2[vf]) and np.array_equal(UV1[FUV1[vf]], UV2[FUV2[vf]]))

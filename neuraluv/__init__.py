@@ -37,7 +37,8 @@ _EXPORTS = {
     "tutte": "tutte",
     "PRESETS": "solver.config", "SolverConfig": "solver.config", "get_config": "solver.config",
     "ChartResult": "solver.result", "solve_chart": "solver.chart", "prepare_chart": "solver.chart",
-    "unwrap": "atlas.unwrap", "build_atlas": "atlas.build", "repair_uvs": "atlas.uvrepair",
+    "unwrap": "atlas.unwrap", "build_atlas": "atlas.build", "repair_layout": "repair.repair",
+    "diagnose_layout": "repair.diagnose",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from neuraluv.io import check_mesh_arrays
-from neuraluv.meshfix import repair_mesh
-from neuraluv.topology import is_disk_like, topology_scan
+from neuraluv.meshfix import is_triangle_soup, repair_mesh
+from neuraluv.topology import components, is_disk_like, topology_scan
 
 __all__ = ["Finding", "CheckReport", "check_mesh", "format_report"]
 
@@ -47,11 +47,13 @@ class CheckReport:
     disk_reason: str
     findings: list = field(default_factory=list)
     raw_components: int = 0
+    unwrap_charts: list = field(default_factory=list)
+    unwrap_welds: bool = False
 
     @property
     def ok_for_unwrap(self):
-        """True when ``neuraluv unwrap`` (single disk chart) accepts the mesh as is."""
-        return self.disk_like and not any(f.severity == "error" for f in self.findings)
+        """True when ``neuraluv unwrap`` accepts the mesh: every component it sees is a disk."""
+        return bool(self.unwrap_charts) and all(c["disk"] for c in self.unwrap_charts)
 
     def as_dict(self):
         return {
@@ -60,6 +62,7 @@ class CheckReport:
             "euler_characteristic": self.euler_characteristic, "disk_like": self.disk_like,
             "disk_reason": self.disk_reason, "ok_for_unwrap": self.ok_for_unwrap,
             "raw_components": self.raw_components,
+            "unwrap_view": {"welded": self.unwrap_welds, "charts": self.unwrap_charts},
             "findings": [f.as_dict() for f in self.findings],
         }
 
@@ -96,10 +99,18 @@ def check_mesh(V, F):
     V, F = check_mesh_arrays(V, F)
     raw = topology_scan(V, F)
     Vw, Fw, rep, _ = repair_mesh(V, F, weld=True)
-    _, _, rep_nw, _ = repair_mesh(V, F, weld=False)
-    # structural findings refer to the welded, degenerate-free mesh the pipeline charts
+    Vn, Fn, rep_nw, _ = repair_mesh(V, F, weld=False)
+    # structural findings refer to the welded, degenerate-free mesh the atlas pipeline charts
     topo = topology_scan(Vw, Fw) if len(Fw) else raw
-    ok, why = is_disk_like(V, F, raw)
+    # the charts `unwrap` sees: seams kept, unless the input is a triangle soup (then welded, as unwrap does)
+    welds = is_triangle_soup(raw.components, len(F))
+    Vu, Fu = (Vw, Fw) if welds else (Vn, Fn)
+    charts = []
+    for vi, fi, Fc in (components(Vu, Fu) if len(Fu) else []):
+        ok_c, why_c = is_disk_like(Vu[vi], Fc)
+        charts.append({"faces": int(len(fi)), "disk": bool(ok_c), "reason": why_c})
+    ok = bool(charts) and all(c["disk"] for c in charts)
+    why = "disk" if ok else (next((c["reason"] for c in charts if not c["disk"]), "no faces"))
     out = []
 
     def add(kind, count, meaning, repair, severity="warning"):
@@ -154,24 +165,31 @@ def check_mesh(V, F):
     return CheckReport(
         vertices=int(len(V)), faces=int(len(F)), components=topo.components, boundary_loops=topo.boundary_loops,
         genus=topo.genus, euler_characteristic=topo.euler_characteristic, disk_like=bool(ok), disk_reason=why,
-        findings=out, raw_components=raw.components,
+        findings=out, raw_components=raw.components, unwrap_charts=charts, unwrap_welds=welds,
     )
 
 
 def format_report(r, name="mesh"):
     """Human-readable text of a :class:`CheckReport`."""
     g = "n/a (non-manifold or unoriented)" if r.genus is None else str(r.genus)
+    ch = r.unwrap_charts
+    n_disk = sum(c["disk"] for c in ch)
     lines = [
-        f"{name}: {r.vertices} vertices, {r.faces} faces; after welding {r.components} component(s), "
-        f"{r.boundary_loops} boundary loop(s), genus {g}, Euler characteristic {r.euler_characteristic}",
-        f"single disk chart: {'yes' if r.disk_like else 'no — ' + r.disk_reason}",
+        f"{name}: {r.vertices} vertices, {r.faces} faces",
+        f"as `unwrap` sees it ({'welded: a triangle soup' if r.unwrap_welds else 'seams kept'}): {len(ch)} chart(s), "
+        f"{n_disk} disk-like" + ("" if n_disk == len(ch) else "; " + "; ".join(
+            f"chart {i} ({c['faces']} faces) is not a disk: {c['reason']}" for i, c in enumerate(ch) if not c["disk"])[:300]),
+        f"as `atlas` sees it (welded): {r.components} component(s), {r.boundary_loops} boundary loop(s), genus {g}, "
+        f"Euler characteristic {r.euler_characteristic}",
     ]
     if not r.findings:
         lines.append("no issues found")
+    else:
+        lines.append("findings (counts on the input; topology on the welded mesh `atlas` charts):")
     for f in r.findings:
         lines.append(f"[{f.severity}] {f.kind}: {f.count}")
         lines.append(f"    means:  {f.meaning}")
         lines.append(f"    repair: {f.repair}")
-    lines.append("next: `neuraluv unwrap` (disk charts as they are)" if r.ok_for_unwrap
-                 else "next: `neuraluv atlas` repairs, cuts seams and routes charts")
+    lines.append("next: `neuraluv unwrap` (every chart is a disk, kept as it is) or `neuraluv atlas` (its own seams)"
+                 if r.ok_for_unwrap else "next: `neuraluv atlas` repairs, cuts seams and routes charts")
     return "\n".join(lines)

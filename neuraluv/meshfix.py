@@ -9,7 +9,7 @@ from dataclasses import dataclass, asdict
 
 import numpy as np
 
-__all__ = ["RepairReport", "repair_mesh", "normalize_unit_box", "face_areas"]
+__all__ = ["RepairReport", "repair_mesh", "normalize_unit_box", "face_areas", "is_triangle_soup", "SOUP_COMPONENTS"]
 
 
 def face_areas(V, F):
@@ -157,3 +157,21 @@ def normalize_unit_box(V):
     if not scale > 0:
         scale = 1.0
     return (Vs - center) / scale, center * m, scale * m
+
+
+#: More components than this (and more than one per 20 faces) make an input a triangle soup.
+SOUP_COMPONENTS = 8
+
+
+def is_triangle_soup(n_components, n_faces):
+    """True for an input that falls apart into many pieces (an STL file, an unwelded export).
+
+    Such an input is welded before unwrapping; an input with few components keeps
+    its coincident vertices as seams (Bob's charts touch along theirs).
+
+    Examples
+    --------
+    >>> is_triangle_soup(3, 10688), is_triangle_soup(512, 512)
+    (False, True)
+    """
+    return n_components > max(SOUP_COMPONENTS, n_faces // 20)

@@ -98,8 +98,9 @@ def setup(seed=0, threads="auto"):
 def load_chart(quick="glove", paper="camel", **quick_kwargs):
     """Load the notebook's chart: ``quick`` by default, ``paper`` at paper scale.
 
-    A real mesh that is not cached falls back to ``quick`` with a printed note
-    (fetch it with ``python data_scripts/fetch.py``), so a notebook always runs.
+    A real mesh that is not cached falls back to ``quick`` (and a missing real
+    ``quick`` mesh to the procedural glove) with a printed note (fetch it with
+    ``python data_scripts/fetch.py``), so a notebook always runs.
 
     Parameters
     ----------
@@ -130,7 +131,11 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
         return datasets.load(quick)
 
     if not paper_scale():
-        return (quick, *_quick())
+        try:
+            return (quick, *_quick())
+        except datasets.DataMissing as err:
+            print(f"{err}: using the procedural 'glove' chart instead")
+            return ("glove", *datasets.glove())
     try:
         return (paper, *datasets.load(paper))
     except datasets.DataMissing as err:

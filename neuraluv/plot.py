@@ -13,7 +13,7 @@ import numpy as np
 __all__ = [
     "checkerboard_texture", "plot_uv_layout", "render_surface", "render_checkerboard",
     "plot_checkerboard_transfer", "plot_face_heatmap", "plot_trace",
-    "save_uv_layout", "save_checkerboard_transfer", "plot_alignment_curves", "plot_routes", "ROUTE_COLORS",
+    "save_uv_layout", "save_checkerboard_transfer", "plot_alignment_curves", "plot_routes", "plot_repair", "ROUTE_COLORS",
 ]
 
 
@@ -309,5 +309,58 @@ def plot_routes(V, F, UV, FUV, face_route, *, islands=None, flips=None, zoom=Tru
         c, h = 0.5 * (lo + hi), 0.5 * max((hi - lo).max(), 0.02)
         axes[2].set_xlim(c[0] - h, c[0] + h)
         axes[2].set_ylim(c[1] - h, c[1] + h)
+    fig.tight_layout()
+    return fig
+
+
+def plot_repair(res, *, title=None, zoom=True):
+    """Before / after of a UV repair: flipped faces red, faces the repair changed orange.
+
+    Parameters
+    ----------
+    res : :class:`~neuraluv.repair.repair.RepairResult`
+    title : str, optional
+    zoom : bool
+        Add a panel zoomed on the changed faces (when they cover a small part of the layout).
+
+    Returns
+    -------
+    fig : matplotlib Figure
+    """
+    plt = _mpl()
+
+    from neuraluv.meshfix import normalize_unit_box
+
+    F = np.asarray(res.F)
+    Vn = normalize_unit_box(res.V)[0]
+    UV0, FUV0 = res.UV_in, res.FUV_in
+    ch = np.asarray(res.changed_faces)
+    grey = np.array([0.85, 0.87, 0.9, 1.0])
+    orange = np.array([1.0, 0.6, 0.1, 1.0])
+    small = ch.any() and ch.mean() < 0.5
+    ncol = 3 if (zoom and small) else 2
+    fig, axes = plt.subplots(1, ncol, figsize=(4.2 * ncol, 4.4))
+    if UV0 is not None and FUV0 is not None:
+        UV0 = np.asarray(UV0, float)
+        ok = (FUV0 >= 0).all(1) & (FUV0 < len(UV0)).all(1)
+        ok[ok] = np.isfinite(UV0[FUV0[ok]]).all(axis=(1, 2))
+        fc = np.tile(grey, (int(ok.sum()), 1))
+        fc[ch[ok]] = [1.0, 0.85, 0.6, 1.0]
+        plot_uv_layout(Vn, F[ok], UV0, ax=axes[0], FUV=FUV0[ok], face_colors=fc,
+                       title=f"(a) before: {res.before.validation['flips']} flips, "
+                             f"{res.before.validation['overlapping_pairs']} overlapping island pairs")
+    fc = np.where(ch[:, None], orange, grey)
+    plot_uv_layout(Vn, F, res.UV, ax=axes[1], FUV=res.FUV, face_colors=fc,
+                   title=f"(b) after: {int(ch.sum())} faces changed (orange), {res.after.validation['flips']} flips")
+    if ncol == 3:
+        plot_uv_layout(Vn, F, res.UV, ax=axes[2], FUV=res.FUV, face_colors=fc, show_box=False,
+                       title="(c) zoom on the changed faces")
+        pts = res.UV[res.FUV[ch]].reshape(-1, 2)
+        lo, hi = pts.min(0), pts.max(0)
+        c, h = 0.5 * (lo + hi), 0.6 * max((hi - lo).max(), 0.02)
+        axes[2].set_xlim(c[0] - h, c[0] + h)
+        axes[2].set_ylim(c[1] - h, c[1] + h)
+    if title:
+        fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig

@@ -1,4 +1,4 @@
-"""Validation-first atlas construction (paper Sec. 4 and Figure 4), unwrapping and UV repair.
+"""Validation-first atlas construction (paper Sec. 4 and Figure 4) and unwrapping.
 
 A whole, possibly messy, input mesh becomes a packed UV atlas:
 
@@ -15,9 +15,10 @@ A whole, possibly messy, input mesh becomes a packed UV atlas:
 ``validate``       5. exact validation: flips, overlaps, bounds, padding
 ``export``         OBJ/GLB writing, read-back validation, figures
 ``unwrap``         unwrap disk-like component(s) without cutting
-``uvrepair``       repair a supplied UV layout, keeping its valid charts
 ``sweep``          many assets on a dask cluster
 =================  ==========================================================
+
+Repairing a supplied layout (rather than making one) is :mod:`neuraluv.repair`.
 """
 from neuraluv.atlas.build import AtlasResult, build_atlas, repack
 from neuraluv.atlas.candidates import bisect_faces, chart_candidates, seam_charts

@@ -34,7 +34,7 @@ def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
     co.max_iterations = int(max_iterations)
     po = xatlas.PackOptions()
     po.resolution = 256  # packing result unused; keep it cheap
-    at.generate(co, po)
+    _interruptible(at.generate, co, po)
     out, seen = [], np.zeros(len(F), bool)
     for i in range(at.get_mesh_chart_count(0)):
         f = np.asarray(at.get_mesh_chart(0, i).faces, np.int64)
@@ -47,6 +47,27 @@ def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
         n, lab = face_components(F[rest])
         out += [rest[lab == c] for c in range(n)]
     return out
+
+
+def _interruptible(fn, *args):
+    """Run a long C++ call in a worker thread so Ctrl-C / SIGTERM still reach the main thread within 0.1 s."""
+    import threading
+
+    box = {}
+
+    def work():
+        try:
+            box["out"] = fn(*args)
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread
+            box["exc"] = exc
+
+    t = threading.Thread(target=work, daemon=True)
+    t.start()
+    while t.is_alive():
+        t.join(0.1)
+    if "exc" in box:
+        raise box["exc"]
+    return box.get("out")
 
 
 def bisect_faces(V, F, fidx):

@@ -92,6 +92,15 @@ def save_renders(res, outdir, stem="atlas"):
     return paths
 
 
+def _peak_memory_mb():
+    """Peak resident memory of this process so far, in MB."""
+    import resource
+    import sys
+
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kb / (1024.0 * 1024.0) if sys.platform == "darwin" else kb / 1024.0  # bytes on macOS, KiB on Linux
+
+
 def atlas_file(inp, out, *, report=None, renders=None, **kw):
     """Load a mesh, build its atlas, write it, read it back and validate the file.
 
@@ -123,6 +132,7 @@ def atlas_file(inp, out, *, report=None, renders=None, **kw):
     rep["output"] = str(out)
     rep["readback"] = jsonable(back)
     rep["ok"] = bool(back["valid"] and back["covered_faces"] == len(res.F))
+    rep["peak_memory_mb"] = _peak_memory_mb()
     if renders:
         rep["renders"] = [str(p) for p in save_renders(res, renders, stem=out.stem)]
     if report:

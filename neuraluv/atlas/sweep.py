@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv.errors import NeuralUVError
+from neuraluv.io import MESH_EXTENSIONS as MESH_EXTS
 
 __all__ = ["MESH_EXTS", "list_assets", "atlas_asset", "summarize", "SweepResult", "sweep"]
 
-MESH_EXTS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
 COLUMNS = ["name", "status", "ok", "faces", "flips", "overlaps", "neural_share", "exact_share", "fallback_share", "charts",
            "islands", "time", "input", "output", "error"]
 

@@ -15,7 +15,7 @@ import numpy as np
 from neuraluv import __version__
 from neuraluv.errors import TopologyError
 from neuraluv.io import check_mesh_arrays, jsonable
-from neuraluv.meshfix import RepairReport, repair_mesh
+from neuraluv.meshfix import RepairReport, is_triangle_soup, repair_mesh
 from neuraluv.metrics import distortion_metrics
 from neuraluv.packing import shelf_pack
 from neuraluv.solver.chart import ChartResult, solve_charts
@@ -89,7 +89,12 @@ class UnwrapResult:
         })
 
 
-def unwrap(V, F, preset="fast", *, seed=0, device="auto", progress=False, padding=2.0, resolution=1024, **overrides):
+#: After welding, more charts than this (and than 2% of the faces) are "fragments": `atlas` is the tool.
+MAX_CHARTS = 64
+
+
+def unwrap(V, F, preset="fast", *, seed=0, device="auto", progress=False, padding=2.0, resolution=1024,
+           time_budget=None, **overrides):
     """Unwrap every connected component of a mesh and pack the charts.
 
     Parameters
@@ -97,12 +102,14 @@ def unwrap(V, F, preset="fast", *, seed=0, device="auto", progress=False, paddin
     V : (n,3) float array
     F : (m,3) int array
     preset : str or SolverConfig
-        Solver preset (``"paper"``, ``"fast"``, ``"test"``).
+        Solver preset (``"fast"``, ``"paper"``, ...).
     seed : int
     device : str
     progress : bool
     padding, resolution : float, int
         Gap between packed charts in texels at ``resolution``.
+    time_budget : float, optional
+        Seconds after which every solve stops with its best valid map.
     **overrides
         SolverConfig field overrides.
 
@@ -113,7 +120,15 @@ def unwrap(V, F, preset="fast", *, seed=0, device="auto", progress=False, paddin
     Raises
     ------
     TopologyError
-        When a component is not disk-like (the message names it and says why).
+        When a component is not disk-like (the message names it and says why),
+        or the input falls apart into many small pieces (then ``atlas`` is the tool).
+
+    Notes
+    -----
+    Seams are kept: coincident but distinct vertices are the seams of a supplied
+    chart (Bob's three charts touch along their seams). Only a *triangle soup*
+    (:func:`neuraluv.meshfix.is_triangle_soup`: many components, as in an STL
+    file) is welded first (``repair.merged_vertices`` counts it).
 
     Examples
     --------
@@ -124,23 +139,27 @@ def unwrap(V, F, preset="fast", *, seed=0, device="auto", progress=False, paddin
     """
     t0 = time.perf_counter()
     V, F = check_mesh_arrays(V, F)
-    V, F, rep, _ = repair_mesh(V, F)
+    weld = is_triangle_soup(len(components(V, F)), len(F))
+    V, F, rep, _ = repair_mesh(V, F, weld=weld)
     if len(F) == 0:
         raise TopologyError("no usable faces left after removing degenerate ones")
     topo = topology_scan(V, F)
     parts = components(V, F)
-    locals_ = []
+    if len(parts) > max(MAX_CHARTS, len(F) // 50):
+        raise TopologyError(f"the input falls apart into {len(parts)} pieces{' even after welding' if weld else ''} "
+                            f"(a triangle soup or fragments): use `neuraluv atlas`, which repairs, cuts, routes and packs them")
     for i, (vi, fi, Fc) in enumerate(parts):
         ok, why = is_disk_like(V[vi], Fc)
         if not ok:
             what = "input" if len(parts) == 1 else f"component {i} ({len(fi)} faces)"
-            raise TopologyError(f"{what} is not disk-like: {why}")
-        locals_.append(Fc)
+            hint = "" if "atlas" in why else "; `neuraluv atlas` cuts such meshes into charts"
+            raise TopologyError(f"{what} is not disk-like: {why}{hint}")
     cfg = get_config(preset, **overrides)
+    deadline = None if not time_budget else t0 + float(time_budget)
     charts: list[ChartResult] = solve_charts([(V[vi], Fc) for vi, _, Fc in parts], cfg, seed=seed, device=device,
                                              progress=progress, labels=[f"chart {i}" for i in range(len(parts))],
-                                             check=False)
-    packed = shelf_pack([c.uv for c in charts], locals_, padding=padding, resolution=resolution)
+                                             check=False, deadline=deadline)
+    packed = shelf_pack([c.uv for c in charts], [p[2] for p in parts], padding=padding, resolution=resolution)
     UV = np.zeros((len(V), 2))
     for (vi, _, _), uv in zip(parts, packed.uvs):
         UV[vi] = uv

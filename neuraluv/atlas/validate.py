@@ -42,7 +42,8 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     Returns
     -------
     dict
-        ``flips`` (faces with det J ≤ 0 via :func:`neuraluv.metrics.distortion_metrics`),
+        ``flips`` (faces with det J ≤ 0 via :func:`neuraluv.metrics.distortion_metrics`; faces
+        without finite UVs count too), ``non_finite_faces`` (corners with NaN/inf UVs),
         ``islands``, ``overlapping_pairs`` (island pairs whose polygons share
         area), ``overlap_area``, ``self_overlapping_islands``, ``padding_violations``
         (pairs closer than ``padding/resolution``), ``min_gap_texels``,
@@ -68,13 +69,22 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     FUV = F if FUV is None else np.asarray(FUV, np.int64)
     UV = np.asarray(UV, float)
     m = len(F)
-    covered = int((FUV >= 0).all(1).sum()) if m else 0
-    finite = bool(np.all(np.isfinite(UV)))
-    used = UV[np.unique(FUV[FUV >= 0])] if m else UV[:0]
-    in_box = bool(finite and len(used) and used.min() >= 0.0 and used.max() <= 1.0)
-    met = distortion_metrics(V, F, UV, FUV) if m else {"flips": 0}
-    flips = int(met["flips"])
-    n, lab = uv_islands(FUV)
+    has_uv = (FUV >= 0).all(1) & (FUV < len(UV)).all(1) if m else np.zeros(0, bool)
+    covered = int(has_uv.sum())
+    ok_face = has_uv.copy()
+    ok_face[has_uv] = np.isfinite(UV[FUV[has_uv]]).all(axis=(1, 2))
+    non_finite = int((has_uv & ~ok_face).sum())
+    used = UV[np.unique(FUV[ok_face])] if ok_face.any() else UV[:0]
+    in_box = bool(non_finite == 0 and len(used) and used.min() >= 0.0 and used.max() <= 1.0)
+    if covered < m or non_finite:  # faces without (finite) UVs count as flipped: det J is undefined
+        met = distortion_metrics(V, F[ok_face], UV, FUV[ok_face]) if ok_face.any() else {"flips": 0, "min_det": None}
+        flips = int(met["flips"]) + (m - int(ok_face.sum()))
+    else:
+        met = distortion_metrics(V, F, UV, FUV) if m else {"flips": 0}
+        flips = int(met["flips"])
+    n, lab_ok = uv_islands(FUV[ok_face]) if ok_face.any() else (0, np.zeros(0, np.int64))
+    lab = lab_ok
+    FUV = FUV[ok_face]
     polys, self_ov = [], 0
     order = np.argsort(lab, kind="stable")
     bounds = np.searchsorted(lab[order], np.arange(n + 1))
@@ -108,9 +118,10 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     gap_tex = (min_gap * resolution) if (resolution and math.isfinite(min_gap)) else (None if n > 1 and not math.isfinite(min_gap) else min_gap)
     if resolution and not math.isfinite(min_gap):
         gap_tex = f">{4 * max(pad, 1e-9) * resolution:.3g}" if n > 1 else "inf"
-    valid = (covered == m and flips == 0 and ov_pairs == 0 and self_ov == 0 and in_box and pad_viol == 0)
+    valid = (covered == m and non_finite == 0 and flips == 0 and ov_pairs == 0 and self_ov == 0 and in_box
+             and pad_viol == 0)
     return {
-        "faces": m, "covered_faces": covered, "flips": flips, "min_det": met.get("min_det"),
+        "faces": m, "covered_faces": covered, "non_finite_faces": non_finite, "flips": flips, "min_det": met.get("min_det"),
         "islands": int(n), "overlapping_pairs": ov_pairs, "overlap_area": ov_area,
         "self_overlapping_islands": self_ov, "padding_violations": pad_viol, "padding_texels": padding,
         "resolution": resolution, "min_gap_texels": gap_tex, "uv_in_unit_square": in_box, "valid": bool(valid),

@@ -189,7 +189,10 @@ def network_floor(preps, cfg, device, reps=None):
 
         once()
         once()
-        n = reps or max(3, min(50, int(2e9 / max(batch.B * batch.n * cfg.width * cfg.width, 1))))
+        t = time.perf_counter()
+        once()
+        single = time.perf_counter() - t
+        n = reps or int(min(50, max(10, 5.0 / max(single, 1e-6))))   # about 5 s of timing, 10-50 passes
         ts = []
         for _ in range(n):
             if device.type == "cuda":
@@ -533,7 +536,7 @@ def _pareto_figure(rows, meshes, path):
 
 # --------------------------------------------------------------------------- atlas throughput
 
-ATLAS_MESHES = ["cow", "nefertiti"]
+ATLAS_MESHES = ["cow", "nefertiti", "ogre"]
 
 
 def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=False, argv=None, show_progress=True,
@@ -576,25 +579,28 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
                    *extra]
             t = time.perf_counter()
             pr = subprocess.run(cmd, capture_output=True, text=True)
+            out_text, err_text = pr.stdout, pr.stderr
             wall = time.perf_counter() - t
-            row = {"asset": name, "kind": kind, "exit": pr.returncode, "wall_s": wall}
+            row = {"asset": name, "kind": kind, "exit": pr.returncode, "wall_s": wall, "peak_rss_mb": float("nan")}
             if rep.exists():
                 r = json.loads(rep.read_text())
                 b, t_ = r["readback"], r["totals"]
+                row["peak_rss_mb"] = float(r.get("peak_memory_mb", float("nan")))
                 row.update({"faces": b["faces"], "covered": b["covered_faces"], "flips": b["flips"],
                             "overlaps": b["overlapping_pairs"], "padding_violations": b["padding_violations"],
                             "ok": r["ok"], "charts": t_["charts"], "neural_share": t_["neural_share"],
                             "exact_share": t_["exact_share"], "fallback_share": t_["fallback_share"],
                             "atlas_s": r["info"]["time"], **{f"t_{k}": v for k, v in r["info"]["timings"].items()}})
             else:
-                row.update({"ok": False, "error": (pr.stderr or pr.stdout).strip()[-200:]})
+                row.update({"ok": False, "error": (err_text or out_text).strip()[-200:]})
             rows.append(row)
             if show_progress:
                 print(f"atlas {name:16s} {row.get('faces', 0):7d} faces {wall:7.1f}s ok={row.get('ok')} "
-                      f"flips={row.get('flips')} overlaps={row.get('overlaps')}", flush=True)
+                      f"flips={row.get('flips')} overlaps={row.get('overlaps')} peak {row['peak_rss_mb']:.0f} MB", flush=True)
     gen = [r for r in rows if r["kind"] == "generated"]
-    head = ["asset", "faces", "wall s", "charts", "neural / exact / fallback faces", "flips", "overlaps", "coverage", "ok"]
-    body = [[r["asset"], f"{r.get('faces', 0):,}", f"{r['wall_s']:.1f}", r.get("charts", "—"),
+    head = ["asset", "faces", "wall s", "peak MB", "charts", "neural / exact / fallback faces", "flips", "overlaps",
+            "coverage", "ok"]
+    body = [[r["asset"], f"{r.get('faces', 0):,}", f"{r['wall_s']:.1f}", f"{r['peak_rss_mb']:.0f}", r.get("charts", "—"),
              f"{100 * r.get('neural_share', 0):.1f} / {100 * r.get('exact_share', 0):.1f} / {100 * r.get('fallback_share', 0):.1f}%",
              r.get("flips", "—"), r.get("overlaps", "—"),
              f"{r.get('covered', 0)}/{r.get('faces', 0)}", "yes" if r.get("ok") else "**no**"]
@@ -602,7 +608,8 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
     if gen:
         w = [r["wall_s"] for r in gen]
         body.append([f"{len(gen)} generated assets (median)", f"{int(np.median([r.get('faces', 0) for r in gen])):,}",
-                     f"{np.median(w):.1f} (max {max(w):.1f})", int(np.median([r.get("charts", 0) for r in gen])),
+                     f"{np.median(w):.1f} (max {max(w):.1f})", f"{max(r['peak_rss_mb'] for r in gen):.0f} (max)",
+                     int(np.median([r.get("charts", 0) for r in gen])),
                      f"{100 * np.median([r.get('neural_share', 0) for r in gen]):.1f} / "
                      f"{100 * np.median([r.get('exact_share', 0) for r in gen]):.1f} / "
                      f"{100 * np.median([r.get('fallback_share', 0) for r in gen]):.1f}%",
@@ -611,8 +618,8 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
                      f"{sum(bool(r.get('ok')) for r in gen)}/{len(gen)}"])
     md = "\n".join([markdown_table(head, body), "",
                     "Each row is one `neuraluv atlas IN -o OUT.obj --report R.json` process with default options "
-                    "(preset `fast`), timed from start to exit; flips, overlaps, coverage and padding are the "
-                    "command's validation of the OBJ it wrote, read back."])
+                    "(preset `fast`), timed from start to exit; *peak MB* is the process's peak resident memory; "
+                    "flips, overlaps, coverage and padding are the command's validation of the OBJ it wrote, read back."])
     cmd = command_line("speed") if argv is None else "neuraluv " + " ".join(argv)
     files = [write_csv(out / "atlas.csv", rows),
              write_markdown(out / "atlas.md", "Atlas throughput: `neuraluv atlas` with defaults", md, command=cmd,

@@ -21,16 +21,23 @@ import argparse
 import sys
 
 from neuraluv import __version__
-from neuraluv.cli.options import EPILOG, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_USER
+from neuraluv.cli.options import EPILOG, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USER
 
 __all__ = ["main", "build_parser"]
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block): ``neuraluv: error: ...`` and exit 2."""
+
+    def error(self, message):
+        self.exit(EXIT_USER, f"neuraluv: error: {message} (see `{self.prog} --help`)\n")
 
 
 def build_parser(argv=None):
     """The full ``argparse`` parser (``argv`` lets ``bench`` add only the named runner's options)."""
     from neuraluv.cli import atlas, bench, chart
 
-    p = argparse.ArgumentParser(prog="neuraluv", epilog=EPILOG,
+    p = _Parser(prog="neuraluv", epilog=EPILOG,
                                 description="Neural fixed-chart UV unwrapping, atlases and UV repair "
                                             "(the executable companion to the paper).")
     p.add_argument("--version", action="version", version=f"neuraluv {__version__}")
@@ -41,24 +48,51 @@ def build_parser(argv=None):
     return p
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an exception so outputs in progress are discarded like on Ctrl-C."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated()
+
+
 def main(argv=None):
     """Entry point; returns the exit status."""
+    import signal
+    import threading
+
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser(argv).parse_args(argv)
+    try:
+        args = build_parser(argv).parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a one-line usage error
+        return exc.code if isinstance(exc.code, int) else EXIT_USER
     from neuraluv.errors import NeuralUVError
 
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return args.func(args)
     except NeuralUVError as exc:
         print(f"neuraluv: error: {exc}", file=sys.stderr)
         return EXIT_USER
+    except _Terminated:
+        print("neuraluv: terminated; no partial output was written", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
-        print("neuraluv: interrupted", file=sys.stderr)
+        print("neuraluv: interrupted; no partial output was written", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except OSError as exc:  # a disk full, a file removed under us, a permission changed mid-run
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        print(f"neuraluv: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_USER
     except Exception as exc:  # never show a traceback to a user
         msg = str(exc).splitlines()[0] if str(exc) else ""
         print(f"neuraluv: internal error: {type(exc).__name__}: {msg} (please report this)", file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -1,8 +1,8 @@
 """Subcommands ``check``, ``atlas``, ``repair`` and ``sweep`` (a :mod:`neuraluv.cli` plugin).
 
-``neuraluv check IN`` explains what is wrong with a mesh; ``neuraluv atlas IN
--o OUT.obj|glb`` builds a validated atlas; ``neuraluv repair IN -o OUT.obj``
-re-solves only the flipped charts of an existing layout; ``neuraluv sweep DIR
+``neuraluv check IN`` explains what is wrong with a mesh (``--uv``: with its UV
+layout); ``neuraluv atlas IN -o OUT.obj|glb`` builds a validated atlas;
+``neuraluv repair IN -o OUT.obj`` repairs a supplied layout with minimal change; ``neuraluv sweep DIR
 -o OUT`` atlases many assets on a dask cluster. User errors are one line
 (exit 2); an atlas or repair that fails validation exits 3.
 """
@@ -13,7 +13,8 @@ import sys
 from pathlib import Path
 
 from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_options, nonneg_float, positive_float,
-                                  positive_int)
+                                  positive_int, time_budget_option)
+from neuraluv.cli.paths import check_paths
 from neuraluv.errors import NeuralUVError
 
 __all__ = ["register"]
@@ -27,6 +28,7 @@ def cmd_check(args):
     from neuraluv.check import check_mesh, format_report
     from neuraluv.io import load_mesh
 
+    check_paths(args.input)
     V, F = load_mesh(args.input)
     r = check_mesh(V, F)
     if args.json:
@@ -40,75 +42,126 @@ def cmd_atlas(args):
     from neuraluv.atlas.export import atlas_file
     from neuraluv.solver.device import resolve_device
 
-    out = Path(args.output)
-    if out.suffix.lower() not in (".obj", ".glb"):
-        raise NeuralUVError(f"output must be .obj or .glb, got {out.name}")
+    _, out, _ = check_paths(args.input, args.output, args.report, output_exts=(".obj", ".glb"))
+    if args.renders:
+        check_paths(output=args.renders, output_folder=True)
     if args.resolution < 16 or args.padding < 0 or 2 * args.padding >= args.resolution / 2:
         raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
     resolve_device(args.device)
     res, rep = atlas_file(args.input, out, report=args.report, renders=args.renders, preset=args.preset,
                           resolution=args.resolution, padding=args.padding, packer=args.packer, seed=args.seed,
                           device=args.device, **_overrides(args),
-                          time_budget=args.time_budget, threads=args.threads, progress=not args.quiet,
+                          time_budget=args.time_budget or None, threads=args.threads, progress=not args.quiet,
                           min_height=args.min_height)
     t = res.totals()
     b = rep["readback"]
-    print(f"wrote {out}: {t['charts']} charts ({t['neural_charts']} neural, {t['fallback_charts']} fallback), "
-          f"{t['islands']} islands; faces neural {_pct(t['neural_share'])} / fallback {_pct(t['fallback_share'])}; "
+    rinfo = res.info["repair"]
+    fixed = [f"{n} {what}" for n, what in ((rinfo["repair"].get("duplicate_faces", 0), "duplicate faces"),
+                                           (rinfo["repair"].get("degenerate_faces", 0), "degenerate faces"),
+                                           (rinfo.get("sliver_faces", 0), "slivers"),
+                                           (rinfo["repair"].get("merged_vertices", 0), "welded vertices"),
+                                           (rinfo.get("reoriented_faces", 0), "re-oriented faces")) if n]
+    print(f"wrote {out}: {t['charts']} charts ({t['neural_charts']} neural, {t['exact_charts']} exact, "
+          f"{t['fallback_charts']} fallback), {t['islands']} islands; faces neural {_pct(t['neural_share'])} / "
+          f"exact {_pct(t['exact_share'])} / fallback {_pct(t['fallback_share'])}; "
           f"coverage {_pct(b['covered_faces'] / max(b['faces'], 1))}, flips {b['flips']}, overlaps {b['overlapping_pairs']}, "
-          f"padding violations {b['padding_violations']}; utilisation {_pct(t['utilisation'])}; {res.info['time']:.1f}s")
+          f"padding violations {b['padding_violations']}; utilisation {_pct(t['utilisation'])}; {res.info['time']:.1f}s"
+          + (f"; input repaired: {', '.join(fixed)}" if fixed else ""))
     if not rep["ok"]:
         print("neuraluv: atlas failed validation after reading it back (see the report)", file=sys.stderr)
         return EXIT_INVALID
     return EXIT_OK
 
 
-def cmd_repair(args):
-    from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.atlas.uvrepair import repair_uvs
-    from neuraluv.io import load_mesh, read_obj, write_json
-    from neuraluv.solver.device import resolve_device
+def _read_layout(inp):
+    """``(V, F, UV, FUV, obj_data)`` of a textured OBJ or GLB; one-line errors for everything else."""
+    from neuraluv.atlas.export import read_atlas
+    from neuraluv.io import load_mesh, read_obj
 
-    inp = Path(args.input)
-    out = Path(args.output)
-    if out.suffix.lower() not in (".obj", ".glb"):
-        raise NeuralUVError(f"output must be .obj or .glb, got {out.name}")
-    resolve_device(args.device)
     load_mesh(inp)  # one-line errors for missing, empty or garbage files
     if inp.suffix.lower() == ".obj":
-        V, F, UV, FUV = read_obj(inp)
+        data = read_obj(inp, keep_lines=True)
+        V, F, UV, FUV = data
         if FUV is None or len(UV) == 0:
-            raise NeuralUVError(f"{inp.name} has no per-corner texture coordinates (vt) to repair; use `neuraluv atlas`")
-    elif inp.suffix.lower() in (".glb", ".gltf"):
-        try:
-            V, F, UV, FUV = read_atlas(inp)
-        except NeuralUVError:
-            raise
-        except Exception as exc:
-            raise NeuralUVError(f"{inp.name}: could not read texture coordinates ({type(exc).__name__})") from None
-    else:
-        raise NeuralUVError(f"{inp.name}: repair needs an OBJ (vt) or GLB (TEXCOORD_0) input")
-    res = repair_uvs(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device,
-                     threads=args.threads, **_overrides(args))
-    write_atlas(out, res.V, res.F, res.UV, res.FUV)
-    # verdict on the written file
-    from neuraluv.metrics import face_dets
-    from neuraluv.meshfix import normalize_unit_box
+            raise NeuralUVError(f"{inp.name} has no per-corner texture coordinates (vt); use `neuraluv atlas` to make a layout")
+        return V, F, UV, FUV, data
+    try:
+        V, F, UV, FUV = read_atlas(inp)
+    except NeuralUVError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a file trimesh cannot read: one line
+        raise NeuralUVError(f"{inp.name}: could not read texture coordinates ({type(exc).__name__})") from None
+    return V, F, UV, FUV, None
 
+
+def cmd_check_uv(args):
+    from neuraluv.repair.diagnose import diagnose_layout
+
+    inp, _, _ = check_paths(args.input, input_exts=(".obj", ".glb", ".gltf"))
+    V, F, UV, FUV, _ = _read_layout(inp)
+    d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding)
+    if args.json:
+        print(json.dumps(d.as_dict(), indent=2))
+    else:
+        print(d.format(inp.name))
+    return EXIT_OK
+
+
+def cmd_repair(args):
+    from neuraluv.atlas.export import read_atlas, write_atlas
+    from neuraluv.atlas.validate import validate_atlas
+    from neuraluv.io import patch_obj, write_json
+    from neuraluv.repair.repair import repair_layout
+    from neuraluv.solver.device import resolve_device
+
+    inp, out, _ = check_paths(args.input, args.output, args.report, input_exts=(".obj", ".glb", ".gltf"),
+                              output_exts=(".obj", ".glb"), figure=args.figure)
+    if args.resolution < 16 or 2 * args.padding >= args.resolution / 2:
+        raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
+    if not args.no_neural:
+        resolve_device(args.device)
+    V, F, UV, FUV, data = _read_layout(inp)
+    res = repair_layout(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device, threads=args.threads,
+                        resolution=args.resolution, padding=args.padding, time_budget=args.time_budget or None,
+                        neural=not args.no_neural, **_overrides(args))
+    if data is not None and out.suffix.lower() == ".obj":
+        written = patch_obj(inp, out, res.UV, res.FUV, data=data)  # every other line of the input kept byte for byte
+    else:
+        write_atlas(out, res.V, res.F, res.UV, res.FUV)
+        written = {"format": out.suffix.lower()}
+    # the verdict is taken on the written file
     V2, F2, UV2, FUV2 = read_atlas(out)
-    flips_back = int((~(face_dets(normalize_unit_box(V2)[0], F2, UV2, FUV2) > 0)).sum())
+    back = validate_atlas(V2, F2, UV2, FUV2, check_padding=False)
     rep = res.report()
-    rep["readback_flips"] = flips_back
+    rep["written"] = written
+    rep["readback"] = back
     if args.report:
         write_json(args.report, rep)
-    print(f"wrote {out}: {rep['charts']} charts, {rep['changed_charts']} re-solved, {rep['kept_charts']} unchanged; "
-          f"flips {rep['flips_before']} -> {flips_back}; repacked: {'yes' if res.repacked else 'no'}; {res.time:.1f}s")
-    return EXIT_OK if flips_back == 0 else EXIT_INVALID
+    if args.figure:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from neuraluv.io import atomic_write
+
+        fig = res.figure(title=inp.name)
+        with atomic_write(args.figure, "wb") as fh:
+            fig.savefig(fh, format="png", dpi=110)
+        plt.close(fig)
+    print(f"wrote {out}: {res.summary()}")
+    if not back["valid"]:
+        print(f"neuraluv: the repaired layout read back from {out.name} is not valid: {back['flips']} flips, "
+              f"{back['overlapping_pairs']} overlapping island pairs, {back['self_overlapping_islands']} "
+              "self-overlapping islands (see the report)", file=sys.stderr)
+        return EXIT_INVALID
+    return EXIT_OK
 
 
 def cmd_sweep(args):
     from neuraluv.atlas.sweep import sweep
 
+    check_paths(output=args.output, output_folder=True)
     res = sweep(args.inputs, args.output, scheduler=args.scheduler, n_workers=args.workers, timeout=args.timeout,
                 resume=not args.no_resume, progress=not args.quiet, preset=args.preset, packer=args.packer,
                 resolution=args.resolution, padding=args.padding, iterations=args.iterations,
@@ -134,7 +187,12 @@ def register(sub):
                                    "elements, and what `atlas` will do about each.", epilog=EPILOG)
     c.add_argument("input", help="mesh file")
     c.add_argument("--json", action="store_true", help="machine-readable output")
-    c.set_defaults(func=cmd_check)
+    c.add_argument("--uv", action="store_true",
+                   help="diagnose the file's UV layout instead (OBJ with vt, or GLB): flips, mirrored islands, "
+                        "overlaps, missing/NaN UVs, bounds, texel density, padding; and what `repair` would do")
+    c.add_argument("--resolution", type=positive_int, default=1024, help="with --uv: texture resolution (default 1024)")
+    c.add_argument("--padding", type=nonneg_float, default=2.0, help="with --uv: required gap in texels (default 2)")
+    c.set_defaults(func=lambda args: (cmd_check_uv if args.uv else cmd_check)(args))
 
     a = sub.add_parser("atlas", help="repair, cut, route (neural / marked fallback), pack and validate a whole mesh",
                        description="Build a validated UV atlas of any triangle mesh: repair, cut into disk-like "
@@ -147,18 +205,27 @@ def register(sub):
     a.add_argument("--padding", type=nonneg_float, default=4.0, help="gap between islands in texels (default 4)")
     a.add_argument("--packer", default="shelf", choices=["shelf", "xatlas"], help="shelf (paper) or xatlas")
     a.add_argument("--renders", help="folder for checkerboard and route-coloured PNGs")
-    a.add_argument("--time-budget", type=positive_float, default=None, help="seconds after which remaining charts become fallbacks")
+    time_budget_option(a, 600)
     a.add_argument("--min-height", type=nonneg_float, default=1e-6, help="faces thinner than this fraction of the diagonal are removed as slivers (default 1e-6)")
     _atlas_options(a)
     a.set_defaults(func=cmd_atlas)
 
-    r = sub.add_parser("repair", help="repair a supplied UV layout, keeping its valid charts bit-identical",
-                       description="Re-solve only the UV charts of an existing layout that contain flipped faces; "
-                                   "every valid chart passes through unchanged.", epilog=EPILOG)
+    r = sub.add_parser("repair", help="repair a supplied UV layout with minimal change (everything valid stays bit-identical)",
+                       description="Repair what is broken in an existing UV layout and leave the rest alone: mirrored "
+                                   "islands are reflected back, folds are untangled in the smallest ring of faces that "
+                                   "works, overlapping or out-of-square islands are moved (never mirrored; scaled only if "
+                                   "nothing else fits), faces without usable UVs get new charts. An OBJ output keeps every "
+                                   "other line of the input byte for byte; a valid layout comes back unchanged. "
+                                   "`neuraluv check --uv IN` shows the diagnosis first.", epilog=EPILOG)
     r.add_argument("input", help="OBJ with vt (or GLB with TEXCOORD_0)")
     r.add_argument("-o", "--output", required=True, help="output .obj or .glb")
-    r.add_argument("--report", help="JSON report of what changed")
+    r.add_argument("--report", help="JSON report: diagnosis before/after, per-island diff")
+    r.add_argument("--figure", help="PNG: the layout before and after, changed faces highlighted")
+    r.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
+    r.add_argument("--padding", type=nonneg_float, default=2.0, help="gap kept around moved and new islands, in texels (default 2)")
+    r.add_argument("--no-neural", action="store_true", help="untangle/polish/move only; islands that need a re-solve stay broken")
     _atlas_options(r)
+    time_budget_option(r, 300)
     r.set_defaults(func=cmd_repair)
 
     s = sub.add_parser("sweep", help="atlas many assets on a dask cluster; Table 9-style summary",

@@ -4,8 +4,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from neuraluv.cli.options import EPILOG, EXIT_INVALID, EXIT_OK, EXIT_USER, add_solver_options
-from neuraluv.errors import NeuralUVError
+from neuraluv.cli.options import EPILOG, EXIT_INVALID, EXIT_OK, EXIT_USER, add_solver_options, time_budget_option
+from neuraluv.cli.paths import check_paths
 
 __all__ = ["register"]
 
@@ -13,10 +13,13 @@ __all__ = ["register"]
 def _summary_line(res):
     rep = res.report()
     t = rep["totals"]
-    esd = ", ".join(f"{c['metrics']['esd']:.4g}" if isinstance(c["metrics"]["esd"], float) else str(c["metrics"]["esd"])
-                    for c in rep["charts"])
+    esd = [c["metrics"]["esd"] for c in rep["charts"]]
+    esd = ", ".join(f"{e:.4g}" if isinstance(e, float) else str(e) for e in esd[:6]) + (", ..." if len(esd) > 6 else "")
+    r = rep["repair"]
+    fixed = [f"{r[k]} {k.replace('_', ' ')}" for k in ("duplicate_faces", "degenerate_faces", "merged_vertices") if r.get(k)]
     return (f"{t['charts']} chart(s): {t['neural']} neural, {t['fallback']} fallback; flips {t['flips']}; "
-            f"E_SD {esd}; {rep['time']:.1f}s on {rep['device']}")
+            f"E_SD {esd}; {rep['time']:.1f}s on {rep['device']}"
+            + (f"; input repaired: {', '.join(fixed)} (removed/welded)" if fixed else ""))
 
 
 def cmd_unwrap(args):
@@ -24,13 +27,12 @@ def cmd_unwrap(args):
     from neuraluv.io import load_mesh, write_json, write_obj
     from neuraluv.solver.device import resolve_device, torch_threads
 
-    out = Path(args.output)
-    if out.suffix.lower() != ".obj":
-        raise NeuralUVError(f"output must be an .obj file, got {out.name}")
+    _, out, _ = check_paths(args.input, args.output, args.report, output_exts=(".obj",))
     resolve_device(args.device)
     V, F = load_mesh(args.input)
     with torch_threads(args.threads):
         res = unwrap(V, F, args.preset, seed=args.seed, device=args.device, progress=not args.quiet,
+                     time_budget=args.time_budget or None,
                      **({"iterations": args.iterations} if args.iterations else {}))
     write_obj(out, res.V, res.F, res.UV)
     if args.report:
@@ -45,13 +47,15 @@ def cmd_demo(args):
     from neuraluv.io import write_json, write_obj
     from neuraluv.solver.device import resolve_device, torch_threads
 
+    check_paths(output=args.output, output_folder=True)
     resolve_device(args.device)
     outdir = Path(args.output)
-    outdir.mkdir(parents=True, exist_ok=True)
+    outdir.mkdir(exist_ok=True)
     V, F = datasets.procedural(args.mesh)
     print(f"demo: unwrapping the built-in '{args.mesh}' chart ({len(V)} vertices, {len(F)} faces) with preset '{args.preset}'")
     with torch_threads(args.threads):
         res = unwrap(V, F, args.preset, seed=args.seed, device=args.device, progress=not args.quiet,
+                     time_budget=args.time_budget or None,
                      **({"iterations": args.iterations} if args.iterations else {}))
     write_obj(outdir / "demo.obj", res.V, res.F, res.UV)
     write_json(outdir / "demo_report.json", res.report())
@@ -94,14 +98,17 @@ def register(sub):
     u.add_argument("-o", "--output", required=True, help="output .obj (written atomically)")
     u.add_argument("--report", help="write a JSON report here (per chart: metrics, status, reason, time)")
     add_solver_options(u)
+    time_budget_option(u, 300)
     u.set_defaults(func=cmd_unwrap)
 
     d = sub.add_parser("demo", help="unwrap a built-in chart (no download) and write figures",
                        description="Run the main job on a built-in procedural chart: OBJ, JSON report, checkerboard "
                                    "transfer and UV-layout PNGs.", epilog=EPILOG)
     d.add_argument("-o", "--output", default="demo_out", help="output folder (default: demo_out)")
-    d.add_argument("--mesh", default="glove", help="built-in chart: glove (default), cap, saddle, bumpy, disk, components")
+    d.add_argument("--mesh", default="glove", choices=["glove", "cap", "saddle", "bumpy", "disk", "components"],
+                   help="built-in chart (default: glove)")
     add_solver_options(d)
+    time_budget_option(d, 300)
     d.set_defaults(func=cmd_demo)
 
     g = sub.add_parser("data", help="list or fetch the registry meshes",

@@ -6,19 +6,22 @@ import math
 
 from neuraluv.solver.config import PRESET_HELP, PRESETS
 
-__all__ = ["EXIT_OK", "EXIT_INTERNAL", "EXIT_USER", "EXIT_INVALID", "EXIT_INTERRUPTED", "EPILOG", "add_solver_options",
-           "positive_int", "nonneg_float", "positive_float", "seed_int", "preset_help"]
+__all__ = ["EXIT_OK", "EXIT_INTERNAL", "EXIT_USER", "EXIT_INVALID", "EXIT_INTERRUPTED", "EXIT_TERMINATED", "EPILOG",
+           "add_solver_options", "time_budget_option", "positive_int", "nonneg_float", "positive_float", "seed_int",
+           "preset_help"]
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_USER = 2
 EXIT_INVALID = 3
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 #: Printed under every command's ``--help``.
 EPILOG = ("exit codes: 0 success; 2 bad input or options (one line on stderr says what to fix); "
           "3 the output was written but failed validation (flips or overlaps: see the report); "
-          "1 internal error (please report it); 130 interrupted (no partial output is left).")
+          "1 internal error (please report it); 130 interrupted (Ctrl-C), 143 terminated (SIGTERM): "
+          "no partial output is left.")
 
 
 def preset_help(default="fast"):
@@ -85,3 +88,10 @@ def add_solver_options(p, *, default_preset="fast", preset_default_none=False):
                    help="auto (CUDA when available, else CPU; default), cpu, cuda or cuda:N; an unavailable device is an error")
     p.add_argument("--threads", type=positive_int, default=None, help="torch CPU threads (default: torch's own choice)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def time_budget_option(p, default):
+    """``--time-budget SECONDS``: bounded work (0: no limit)."""
+    p.add_argument("--time-budget", type=nonneg_float, default=float(default), metavar="SECONDS",
+                   help=f"stop optimising after this many seconds (default {default:g}; 0: no limit); a chart still "
+                        "running keeps its best valid map, a chart not yet solved becomes a marked fallback")

@@ -56,6 +56,8 @@ class PreparedChart:
     start_metrics : :func:`~neuraluv.metrics.distortion_metrics` of ``u_start`` on ``Vn``.
     dC_inv : (m,2,2) float array, A : (m,) float array: local frames and areas of ``Vn``.
     target : (n,2) float array or None, the map the warm-up fits in absolute mode.
+    free : (n,) bool array or None, vertices the network may move (the others stay at
+        ``u_start`` exactly; residual mode only). None: all move.
     """
 
     V: np.ndarray
@@ -70,6 +72,7 @@ class PreparedChart:
     dC_inv: np.ndarray
     A: np.ndarray
     target: np.ndarray | None
+    free: np.ndarray | None = None
 
 
 def _init_target(cfg, u_start, eig):
@@ -210,7 +213,10 @@ def _result(cfg, prep, attempts, log, t_start, device):
     neural_uv = uv
     start, sm = prep.start, prep.start_metrics
     status, reason = "neural", ""
-    if m["valid"] and not trace["iter"]:
+    if m["valid"] and not trace["iter"] and stop == "time":
+        status = "fallback"
+        reason = f"time budget exhausted before this chart's solve; the valid start ({start}) is returned"
+    elif m["valid"] and not trace["iter"]:
         status = "fallback"
         reason = (f"solver stalled at its start ({start}, min det J {sm['min_det']:.2g}): every step, "
                   f"even {cfg.max_backtracks} halvings down, was rejected (a flip, a collapsing "
@@ -218,9 +224,12 @@ def _result(cfg, prep, attempts, log, t_start, device):
                   "un-crushed first when start_relax > 0)")
     elif m["valid"] and np.array_equal(uv, prep.u_start * s):
         status = "fallback"
-        reason = (f"no accepted step improved on the start ({start}, min det J {sm['min_det']:.2g}, "
-                  f"{len(trace['iter'])} iterations); the valid start is returned (a start below relax_below is "
-                  "un-crushed first when start_relax > 0)")
+        if stop == "time" and not trace["iter"]:
+            reason = f"time budget exhausted before this chart's solve; the valid start ({start}) is returned"
+        else:
+            reason = (f"no accepted step improved on the start ({start}, min det J {sm['min_det']:.2g}, "
+                      f"{len(trace['iter'])} iterations); the valid start is returned (a start below relax_below is "
+                      "un-crushed first when start_relax > 0)")
     elif not m["valid"]:
         status = "fallback"
         if sm["valid"]:

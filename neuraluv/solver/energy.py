@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 import torch
 
-__all__ = ["inv_det_sq", "jacobian_entries", "jacobians_torch", "fro2_det", "stable_esd", "true_esd", "barrier",
+__all__ = ["inv_det_sq", "face_terms", "jacobian_entries", "jacobians_torch", "fro2_det", "stable_esd", "true_esd", "barrier",
            "alpha_schedule", "objective", "Objective", "chart_objective", "ChartObjective"]
 
 
@@ -122,10 +122,20 @@ def _fro2_det(a, b, c, d):
     return a * a + b * b + c * c + d * d, a * d - b * c
 
 
-def _face_terms(fro2, det, eps_J, eps):
+def face_terms(fro2, det, eps_J, eps):
     """Per face: the stable energy ``‖J‖²(1 + q(det))``, the barrier ``[ε − det]₊²``, the true energy.
 
     The one place the paper's per-face formulas are written (torch).
+
+    Parameters
+    ----------
+    fro2, det : (m,) torch tensors
+        ``‖J_t‖²_F`` and ``det J_t``.
+    eps_J, eps : float
+
+    Returns
+    -------
+    stable, barrier, true : (m,) torch tensors (``true`` without gradient)
     """
     stable = fro2 * (1.0 + inv_det_sq(det, eps_J))
     bar = torch.clamp(eps - det, min=0.0) ** 2
@@ -155,7 +165,7 @@ def stable_esd(J, A, eps_J=1e-4):
     .. math:: \\tilde E_{SD} = \\frac{1}{\\sum_t A_t}\\sum_t A_t \\|J_t\\|_F^2 (1 + q(\\det J_t)).
     """
     fro2, det = fro2_det(J)
-    return torch.sum(A * _face_terms(fro2, det, eps_J, 0.0)[0]) / torch.sum(A)
+    return torch.sum(A * face_terms(fro2, det, eps_J, 0.0)[0]) / torch.sum(A)
 
 
 def true_esd(J, A):
@@ -164,7 +174,7 @@ def true_esd(J, A):
     Agrees with :func:`neuraluv.metrics.distortion_metrics` ``["esd"]``.
     """
     fro2, det = fro2_det(J)
-    return torch.sum(A * _face_terms(fro2.detach(), det.detach(), 1.0, 0.0)[2]) / torch.sum(A)
+    return torch.sum(A * face_terms(fro2.detach(), det.detach(), 1.0, 0.0)[2]) / torch.sum(A)
 
 
 def barrier(det, eps=1e-3):
@@ -176,7 +186,7 @@ def barrier(det, eps=1e-3):
     an area-weighted *mean*: the barrier's weight relative to the energy grows
     with the chart's face count (docs/ARCHITECTURE.md, "The objective's scale").
     """
-    return torch.sum(_face_terms(torch.zeros_like(det), det, 1.0, eps)[1])
+    return torch.sum(face_terms(torch.zeros_like(det), det, 1.0, eps)[1])
 
 
 def alpha_schedule(s, n, alpha_start=10.0, alpha_end=0.1):
@@ -280,7 +290,7 @@ def chart_objective(UV, F, dC_inv, w, face_chart, n_charts, alpha, eps_J=1e-4, e
     ([8.5, 4.0], [0, 0])
     """
     fro2, det = _fro2_det(*jacobian_entries(UV, F, dC_inv))
-    stable_f, bar_f, true_f = _face_terms(fro2, det, eps_J, eps)
+    stable_f, bar_f, true_f = face_terms(fro2, det, eps_J, eps)
     if n_charts == 1:  # one chart: plain sums are cheaper than segment sums
         stable = (w * stable_f).sum()[None]
         bar = bar_f.sum()[None]

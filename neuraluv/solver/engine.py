@@ -57,6 +57,7 @@ class ChartBatch:
     face_chart : (M,) long tensor — chart of each face.
     dC_inv : (M, 2, 2) float64 tensor; w : (M,) float64 tensor — area weights, summing to 1 per chart.
     sizes : (B,) int array — vertex count of each chart.
+    mask : (B, n, 1) float64 tensor or None — 0 on pinned vertices (their UV stays the base), 1 elsewhere.
     """
 
     X: torch.Tensor
@@ -67,6 +68,7 @@ class ChartBatch:
     dC_inv: torch.Tensor
     w: torch.Tensor
     sizes: np.ndarray
+    mask: torch.Tensor | None = None
 
     @property
     def B(self):
@@ -110,6 +112,12 @@ def make_batch(preps, *, residual=True, device="cpu"):
         ws.append(p.A / p.A.sum())
     dev = torch.device(device)
     has_target = all(p.target is not None for p in preps)
+    mask = None
+    if residual and any(getattr(p, "free", None) is not None for p in preps):
+        mask = np.ones((B, n, 1))
+        for c, p in enumerate(preps):
+            if getattr(p, "free", None) is not None:
+                mask[c, : len(p.X), 0] = np.asarray(p.free, float)
     return ChartBatch(
         X=torch.as_tensor(X, device=dev),
         base=torch.as_tensor(U, device=dev) if residual else None,
@@ -119,6 +127,7 @@ def make_batch(preps, *, residual=True, device="cpu"):
         dC_inv=torch.as_tensor(np.concatenate(dci), device=dev),
         w=torch.as_tensor(np.concatenate(ws), device=dev),
         sizes=np.array([len(p.X) for p in preps]),
+        mask=None if mask is None else torch.as_tensor(mask, device=dev),
     )
 
 
@@ -134,7 +143,8 @@ def _subset(batch, keep):
     F = F - (old_c * batch.n)[:, None] + (new_c * batch.n)[:, None]
     return ChartBatch(X=batch.X[keep_t], base=None if batch.base is None else batch.base[keep_t],
                       target=None if batch.target is None else batch.target[keep_t], F=F, face_chart=new_c,
-                      dC_inv=batch.dC_inv[fmask], w=batch.w[fmask], sizes=batch.sizes[np.asarray(keep)])
+                      dC_inv=batch.dC_inv[fmask], w=batch.w[fmask], sizes=batch.sizes[np.asarray(keep)],
+                      mask=None if batch.mask is None else batch.mask[keep_t])
 
 
 # --------------------------------------------------------------------------- the network on flat parameters
@@ -186,12 +196,14 @@ def flat_grad(layers):
     return torch.cat([t.grad.reshape(B, -1) for L in layers for t in L], 1)
 
 
-def forward(theta, X, base, *, width, n_layers, omega0):
+def forward(theta, X, base, *, width, n_layers, omega0, mask=None):
     """UVs of every chart: ``base + head(sin(ω₀(… W₁ x + b₁ …)))`` (float64), ``(B, n, 2)``.
 
     The same network as :class:`~neuraluv.solver.siren.Siren` (paper Eq. 3),
     evaluated for all charts at once from their stacked weights. ``theta`` is
-    the flat ``(B, P)`` tensor or its :func:`leaves`.
+    the flat ``(B, P)`` tensor or its :func:`leaves`. With ``mask (B, n, 1)``
+    the network's output is multiplied by it, so vertices with mask 0 stay
+    exactly at ``base`` (pinned; used by local UV repair).
     """
     layers = _views(theta, X.shape[2], width, n_layers) if torch.is_tensor(theta) else theta
     h = X
@@ -199,6 +211,8 @@ def forward(theta, X, base, *, width, n_layers, omega0):
         h = torch.sin(torch.baddbmm(b, h, W, beta=omega0, alpha=omega0))  # sin(ω₀ (h W + b)), one fused product
     W, b = layers[-1]
     out = torch.baddbmm(b, h, W).to(torch.float64)
+    if mask is not None:
+        out = out * mask
     return out if base is None else base + out
 
 
@@ -326,7 +340,7 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
 
     def evaluate(th, it_eval, bt):
         th = leaves(th, d, cfg.width, cfg.n_layers)
-        u = forward(th, bt.X, bt.base, **net)
+        u = forward(th, bt.X, bt.base, mask=bt.mask, **net)
         tick("forward")
         o = chart_objective(u.reshape(-1, 2), bt.F, bt.dC_inv, bt.w, bt.face_chart, bt.B, _alpha(it_eval, cfg),
                             cfg.eps_J, cfg.eps)

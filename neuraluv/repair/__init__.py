@@ -1,0 +1,31 @@
+"""Repair of a supplied UV layout with minimal change (``neuraluv repair``, ``neuraluv check --uv``).
+
+Layer: above :mod:`neuraluv.atlas` (whose router re-solves an island as a chart
+when nothing smaller works) and :mod:`neuraluv.solver` (the neural step on a
+region with its ring pinned); the diagnosis, untangling, polishing and placing
+are NumPy/SciPy/shapely and do not import torch.
+
+=============  ==============================================================
+``diagnose``   every problem of a layout, where it is, and what repair does
+``untangle``   Garanzha et al. 2021 untangling; flip-free polish of the stable objective
+``local``      fold repair in the smallest ring-grown region that works
+``place``      moving islands into free space (raster search, exact check)
+``overlap``    exact pairwise triangle overlap tests
+``repair``     the escalation for a whole layout, the diff and the report
+``bench``      generated damage for ``neuraluv bench repair``
+=============  ==============================================================
+"""
+from __future__ import annotations
+
+import importlib
+
+__all__ = ["diagnose_layout", "repair_layout", "untangle", "polish", "RepairResult", "UVDiagnosis"]
+
+_WHERE = {"diagnose_layout": "diagnose", "UVDiagnosis": "diagnose", "repair_layout": "repair",
+          "RepairResult": "repair", "untangle": "untangle", "polish": "untangle"}
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"neuraluv.repair.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'neuraluv.repair' has no attribute {name!r}")

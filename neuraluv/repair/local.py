@@ -1,0 +1,329 @@
+"""Local repair of folds: the smallest neighbourhood that works, everything else bit-identical.
+
+For one cluster of folded faces (flipped or degenerate, joined through shared
+``vt`` rows) of one island, :func:`repair_cluster` escalates and stops at the
+first step that gives a valid region (every face ``det J > 0``, no triangle of
+the region overlapping another of the island):
+
+1. **untangle + polish** in a region grown ring by ring (0, 1, 2, 3, 4, 6, 8, …
+   rings of texture vertices around the cluster): the rows in the region move,
+   its outer ring stays pinned; :func:`~neuraluv.repair.untangle.untangle`
+   (Garanzha et al. 2021) removes the folds, :func:`~neuraluv.repair.untangle.polish`
+   lowers the paper's stable objective with flip-free steps. The first region
+   that works is then grown one ring at a time while it is more distorted than
+   the untouched faces around it and growing lowers the distortion by more than
+   1% (rows the damage moved without folding them are freed too);
+   when the polish stops on its iteration cap, the neural solver continues from
+   it (step 2's solver);
+2. **the neural solver on the region with its ring pinned**, from a Tutte map of
+   the region inside its pinned ring (when that start is valid): the paper's
+   SIREN reparameterization with LBO features, residual on the start, every
+   step validity-checked; the pinned rows are held by a zero mask on the
+   network's output (:class:`~neuraluv.solver.engine.ChartBatch`);
+3. **the whole island, untangled** with a free boundary (every row moves);
+4. otherwise the caller re-solves the whole island as a chart (the last resort).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from neuraluv.repair.untangle import RegionEnergy, polish, reference_scale, untangle
+
+__all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd"]
+
+#: Ring counts tried around a fold, in order.
+RING_SCHEDULE = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
+
+
+class IslandGraph:
+    """Face–row incidence of one island, for growing regions ring by ring."""
+
+    def __init__(self, FUV, faces, n_rows):
+        self.faces = np.asarray(faces, np.int64)
+        T = np.asarray(FUV, np.int64)[self.faces]
+        self.M = sp.csr_matrix((np.ones(T.size), (np.repeat(np.arange(len(T)), 3), T.reshape(-1))),
+                               shape=(len(T), n_rows))
+        self.MT = self.M.T.tocsr()
+
+    def grow(self, rows_mask):
+        """Rows of every island face touching ``rows_mask``."""
+        f = (self.M @ rows_mask.astype(float)) > 0
+        return (self.MT @ f.astype(float)) > 0
+
+    def faces_touching(self, rows_mask):
+        """Island faces (global indices) with a corner in ``rows_mask``."""
+        return self.faces[(self.M @ rows_mask.astype(float)) > 0]
+
+
+def region_overlaps(UV, FUV, region, island):
+    """Number of overlapping triangle pairs between ``region`` faces and ``island`` faces (exact)."""
+    from neuraluv.repair.overlap import candidate_pairs, overlapping_pairs
+
+    A = UV[FUV[region]]
+    B = UV[FUV[island]]
+    a, b = candidate_pairs(A, B)
+    keep = region[a] != island[b]
+    a, b = a[keep], b[keep]
+    if not len(a):
+        return 0
+    return int(overlapping_pairs(A[a], B[b]).sum())
+
+
+def region_esd(Vn, F, UV, FUV, faces, scale):
+    """Area-weighted E_SD of ``faces`` with the layout scaled by ``1/scale`` (``inf`` when a face is not valid)."""
+    from neuraluv.metrics import distortion_metrics
+
+    m = distortion_metrics(Vn, F[faces], UV / scale, FUV[faces])
+    return float(m["esd"]) if m["valid"] else float("inf")
+
+
+def _tutte_inside(UV, FUV, faces, free):
+    """Uniform Tutte map of the region's free rows with every other row of the region pinned (None if singular)."""
+    from scipy.sparse.linalg import spsolve
+
+    T = FUV[faces]
+    rows = np.unique(T)
+    loc = np.searchsorted(rows, T)
+    e = np.concatenate([loc[:, [0, 1]], loc[:, [1, 2]], loc[:, [2, 0]]])
+    e = np.unique(np.sort(e, 1), axis=0)
+    n = len(rows)
+    W = sp.coo_matrix((np.ones(2 * len(e)), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])), shape=(n, n)).tocsr()
+    L = sp.diags(np.asarray(W.sum(1)).ravel()) - W
+    is_free = np.isin(rows, free)
+    fi, pi = np.flatnonzero(is_free), np.flatnonzero(~is_free)
+    if not len(pi):
+        return None
+    A = L[fi][:, fi].tocsc()
+    b = -(L[fi][:, pi] @ UV[rows[pi]])
+    try:
+        x = np.column_stack([spsolve(A, b[:, 0]), spsolve(A, b[:, 1])])
+    except Exception:  # noqa: BLE001 - singular: a free part not connected to the ring
+        return None
+    if not np.isfinite(x).all():
+        return None
+    out = UV.copy()
+    out[rows[fi]] = x
+    return out
+
+
+def neural_region(Vn, F, UV, FUV, faces, free, scale, config="fast", *, seed=0, device="cpu", deadline=None):
+    """The neural solver on a region, its non-free rows pinned, from the (valid) map ``UV``.
+
+    Parameters
+    ----------
+    Vn : (n,3) float array
+    F, FUV : (m,3) int arrays
+    UV : (p,2) float array
+        A map whose region faces are all valid: the residual base.
+    faces : (r,) int array
+        The region's faces; its rows that are not in ``free`` are pinned.
+    free : (k,) int array
+    scale : float
+        Texel density (UV per 3D length) at which J is measured.
+    config : str or SolverConfig
+    seed : int
+    device : str
+    deadline : float, optional
+
+    Returns
+    -------
+    UV : (p,2) float array
+        A copy with the free rows from the solver's best valid map (unchanged if it found none).
+    result : :class:`~neuraluv.solver.result.ChartResult`
+
+    Notes
+    -----
+    The region's chart mesh has one vertex per ``vt`` row (at the 3D position of
+    its first corner); the SIREN's inputs are its normalised positions and LBO
+    eigenfunctions (paper Sec. 3), the residual base is ``UV / scale`` in the
+    chart's normalised units, and the network's output is multiplied by 0 on the
+    pinned rows, so they stay bit-identical.
+    """
+    from neuraluv.jacobian import local_frames
+    from neuraluv.meshfix import normalize_unit_box
+    from neuraluv.metrics import distortion_metrics
+    from neuraluv.solver.chart import PreparedChart, solve_charts
+    from neuraluv.solver.config import get_config
+    from neuraluv.spectral import chart_features, lbo_eigenfunctions
+
+    cfg = get_config(config)
+    T = FUV[faces]
+    rows = np.unique(T)
+    Fc = np.searchsorted(rows, T)
+    Vc = np.zeros((len(rows), 3))
+    Vc[Fc.reshape(-1)[::-1]] = Vn[F[faces].reshape(-1)[::-1]]
+    Vcn, _, sv = normalize_unit_box(Vc)
+    dC_inv, A = local_frames(Vcn, Fc)
+    k = min(cfg.k, max(len(rows) - 2, 0))
+    eig = lbo_eigenfunctions(Vcn, Fc, max(k, 2)) if k > 0 else (np.zeros(0), np.zeros((len(rows), 0)))
+    X = chart_features(Vcn, Fc, k, eig=(eig[0][:k], eig[1][:, :k]))
+    if X.shape[1] != 3 + cfg.k:  # tiny regions: pad the spectral columns so the network shape is the preset's
+        X = np.concatenate([X, np.zeros((len(X), 3 + cfg.k - X.shape[1]), X.dtype)], 1)
+    u0 = UV[rows] / (scale * sv)
+    m0 = distortion_metrics(Vcn, Fc, u0)
+    prep = PreparedChart(V=Vcn * sv, F=Fc, Vn=Vcn, scale=float(sv), X=X.astype(np.float32), eig=eig, u_start=u0,
+                         start="repair", start_metrics=m0, dC_inv=dC_inv, A=A, target=None,
+                         free=np.isin(rows, free))
+    res = solve_charts(None, cfg, seed=seed, device=device, preps=[prep], deadline=deadline)[0]
+    out = UV.copy()
+    if res.metrics["valid"] and res.status == "neural":
+        new = res.uv * scale  # res.uv is in the chart's units (u · sv)
+        fr = np.isin(rows, free)
+        out[rows[fr]] = new[fr]
+    return out, res
+
+
+def _try_neural(Vn, F, UV, FUV, region, free, scale, config, seed, device, deadline):
+    """:func:`neural_region`, or ``(UV, None)`` when the region cannot be prepared (a degenerate region mesh)."""
+    try:
+        return neural_region(Vn, F, UV, FUV, region, free, scale, config, seed=seed, device=device, deadline=deadline)
+    except (ValueError, ArithmeticError, RuntimeError, np.linalg.LinAlgError):
+        return UV, None
+
+
+def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed=0, device="cpu", deadline=None,
+                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.02):
+    """Repair one fold cluster in the smallest region that works (see the module docstring).
+
+    Parameters
+    ----------
+    Vn : (n,3) float array
+    F, FUV : (m,3) int arrays
+    UV : (p,2) float array
+        The layout (not modified).
+    graph : IslandGraph
+        The island the cluster belongs to.
+    cluster : (c,) int array
+        Folded faces (and faces that must become valid).
+    scale : float
+        The island's texel density: the fallback when the region and the two
+        rings around it have no valid face. Each attempt measures the density
+        of that neighbourhood (:func:`~neuraluv.repair.untangle.reference_scale`)
+        and untangles, polishes and compares at it.
+    config, seed, device, deadline
+        For the neural step.
+    max_fraction : float
+        Stop growing rings when the region holds more than this fraction of the island.
+    neural : bool
+        Allow the neural steps.
+    max_extra_rings, grow_gain, band_tol : int, float, float
+        After the first region that works, grow it one ring at a time (at most
+        ``max_extra_rings``) while its E_SD is more than ``band_tol`` (relative)
+        above that of the untouched faces up to three rings around it, and
+        while growing lowers the energy over the grown region and one ring
+        beyond by more than ``grow_gain``: rows the damage moved without folding
+        are freed too, but a layout that was merely not optimal is not
+        "improved" beyond its neighbourhood's quality.
+
+    Returns
+    -------
+    UV : (p,2) float array or None
+        The repaired copy (None: escalate to the whole island).
+    info : dict
+        ``step``, ``rings``, ``region_faces``, ``free_rows``, ``time``, and the
+        sub-steps' details.
+    """
+    t0 = time.perf_counter()
+    n_rows = len(UV)
+    island = graph.faces
+    seed_rows = np.zeros(n_rows, bool)
+    seed_rows[np.unique(FUV[cluster])] = True
+
+    def local_scale(rows):
+        """Texel density of the region and two rings around it: a layout's density may vary over an island
+        (a conformal map shrinks protrusions), and the pinned ring fixes the room the region has."""
+        near = graph.faces_touching(graph.grow(graph.grow(rows)))
+        return reference_scale(Vn, F, UV, FUV, faces=near) or scale
+
+    def attempt(rows):
+        """Untangle + polish with ``rows`` free: ``(map or None, details)``."""
+        free = np.flatnonzero(rows)
+        region = graph.faces_touching(rows)
+        sc = local_scale(rows)
+        out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc)
+        ov = region_overlaps(out, FUV, region, island) if uinfo["ok"] else -1
+        det = {"region": region, "free": free, "untangle": uinfo, "overlaps": ov, "scale": sc}
+        if not (uinfo["ok"] and ov == 0):
+            return None, det
+        out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc)
+        if region_overlaps(out2, FUV, region, island):
+            out2 = out  # the polish moved a triangle over another: keep the untangled map
+        det["polish"] = pinfo
+        return out2, det
+
+    rows = seed_rows.copy()
+    done_r = 0
+    last = None
+    tried = []
+    found = None
+    for r in RING_SCHEDULE:
+        for _ in range(r - done_r):
+            rows = graph.grow(rows)
+        done_r = r
+        region = graph.faces_touching(rows)
+        whole = len(region) == len(island) and not (graph.grow(rows) & ~rows).any()
+        if len(region) > max_fraction * len(island) and last is not None:
+            break
+        try:
+            out, det = attempt(rows)
+        except ValueError as exc:  # degenerate 3D faces in the region
+            return None, {"step": "failed", "reason": str(exc), "time": time.perf_counter() - t0}
+        last = (r, det["region"], det["free"], det["scale"])
+        tried.append({"rings": r, "region_faces": int(len(det["region"])), "untangled": det["untangle"]["ok"],
+                      "overlaps": det["overlaps"]})
+        if out is not None:
+            found = (r, rows, out, det, whole)
+            break
+        if whole:
+            break
+    if found is not None:
+        # grow further while it pays: rows moved by the damage but not folded are still pinned at their damaged
+        # places; one more ring frees them. Keep a larger region only if it lowers the energy (over the larger
+        # region and one ring beyond, the same faces for both) by more than ``grow_gain``.
+        r, rows, out, det, whole = found
+        extra = 0
+        while not whole and extra < max_extra_rings:
+            bigger = graph.grow(rows)
+            region_b = graph.faces_touching(bigger)
+            if len(region_b) > max_fraction * len(island) or (bigger == rows).all():
+                break
+            # the neighbourhood's own quality is the target: once the region is as good as the untouched faces
+            # around it (within ``band_tol``), growing would only "improve" the user's layout, not repair it
+            region, sc = det["region"], det["scale"]
+            band = np.setdiff1d(graph.faces_touching(graph.grow(graph.grow(graph.grow(rows)))), region)
+            if len(band) and region_esd(Vn, F, out, FUV, region, sc) <= (1.0 + band_tol) * region_esd(
+                    Vn, F, out, FUV, band, sc):
+                break
+            out_b, det_b = attempt(bigger)
+            if out_b is None:
+                break
+            S = graph.faces_touching(graph.grow(bigger))
+            e_old, e_new = region_esd(Vn, F, out, FUV, S, sc), region_esd(Vn, F, out_b, FUV, S, sc)
+            if not e_new < (1.0 - grow_gain) * e_old:
+                break
+            rows, out, det, r, extra = bigger, out_b, det_b, r + 1, extra + 1
+            whole = len(region_b) == len(island) and not (graph.grow(rows) & ~rows).any()
+        region, free, sc = det["region"], det["free"], det["scale"]
+        step = "untangle+polish"
+        if neural and not det["polish"]["converged"] and not whole:
+            out3, res = _try_neural(Vn, F, out, FUV, region, free, sc, config, seed, device, deadline)
+            if (res is not None and res.status == "neural" and region_overlaps(out3, FUV, region, island) == 0
+                    and region_esd(Vn, F, out3, FUV, region, sc) < region_esd(Vn, F, out, FUV, region, sc)):
+                out, step = out3, "untangle+polish+neural"
+        return out, {"step": step, "rings": r, "extra_rings": extra, "region_faces": int(len(region)),
+                     "free_rows": int(len(free)), "whole_island": bool(whole), "untangle": det["untangle"],
+                     "polish": det["polish"], "tried": tried, "time": time.perf_counter() - t0}
+    if neural and last is not None:
+        r, region, free, sc = last
+        start = _tutte_inside(UV, FUV, region, free)
+        if start is not None and (RegionEnergy.build(Vn, F, FUV, region, free, sc).dets(start) > 0).all() \
+                and region_overlaps(start, FUV, region, island) == 0:
+            out, res = _try_neural(Vn, F, start, FUV, region, free, sc, config, seed, device, deadline)
+            out = out if (res is not None and res.status == "neural") else start
+            if region_overlaps(out, FUV, region, island) == 0:
+                return out, {"step": "neural (ring pinned)", "rings": r, "region_faces": int(len(region)),
+                             "free_rows": int(len(free)), "tried": tried, "time": time.perf_counter() - t0}
+    return None, {"step": "escalate", "tried": tried, "time": time.perf_counter() - t0}

@@ -1,0 +1,516 @@
+"""Repair a supplied UV layout with minimal change (``neuraluv repair``).
+
+:func:`repair_layout` diagnoses the layout (:func:`~neuraluv.repair.diagnose.diagnose_layout`)
+and fixes each problem with the smallest change that works, in this order:
+
+1. a **mirrored island** is reflected back about its centre (not re-solved);
+2. each **cluster of folded faces** is repaired locally
+   (:func:`~neuraluv.repair.local.repair_cluster`: untangle + polish in a region grown
+   ring by ring, then the neural solver with the ring pinned); only if that fails is
+   the whole island untangled, and only if that fails is it re-solved as a chart by
+   the atlas router (neural, or a marked fallback) and put back where it was;
+3. an island that **overlaps itself** is untangled around the overlap, else re-solved;
+4. faces with **missing or non-finite UVs** get new charts, solved like ``atlas``
+   does, at the layout's median texel density;
+5. islands that **overlap each other**, lie **outside [0,1]²**, or are new are
+   moved into free space (:func:`~neuraluv.repair.place.place_island`): only the
+   islands involved, translated and if needed turned by quarter turns, never
+   mirrored, scaled down only when they fit nowhere (reported); the whole layout
+   is repacked only when even that fails.
+
+Every other ``vt`` row stays bit-identical; the result records, per island,
+what changed (faces, rows, the largest UV displacement in texels) and the
+before/after distortion. A layout with nothing wrong is returned unchanged.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from neuraluv.errors import NeuralUVError
+from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout, face_clusters, find_overlaps, layout_facts
+from neuraluv.repair.local import IslandGraph, region_esd, region_overlaps, repair_cluster
+from neuraluv.repair.place import island_polygon, occupancy, place_island
+from neuraluv.repair.untangle import polish, untangle
+
+__all__ = ["RepairResult", "repair_layout", "SHRINK_SCALES"]
+
+#: Uniform scales tried, in order, for an island that fits nowhere at its own size.
+SHRINK_SCALES = (1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3)
+
+
+@dataclass
+class RepairResult:
+    """Output of :func:`repair_layout`.
+
+    Attributes
+    ----------
+    V, F : the mesh as given.
+    UV : (p',2) float array — the input's rows first (rows not listed in ``changed_rows`` are
+        bit-identical), then any new rows.
+    FUV : (m,3) int array — rows of faces that did not change are identical to the input.
+    changed_rows : (p',) bool array — rows whose value changed or that are new.
+    changed_faces : (m,) bool array — faces with a corner whose UV or ``vt`` index changed.
+    islands : list of dict — per input island: actions, faces and rows changed, largest
+        displacement in texels, placement, E_SD before and after.
+    new_charts : list of dict — charts made for faces without usable UVs.
+    before, after : UVDiagnosis of the input and of the result.
+    repacked : bool — the whole layout had to be repacked.
+    time : float — seconds.
+    UV_in, FUV_in : the layout as given (for the diff and the figure).
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    UV: np.ndarray
+    FUV: np.ndarray
+    changed_rows: np.ndarray
+    changed_faces: np.ndarray
+    islands: list
+    new_charts: list
+    before: UVDiagnosis
+    after: UVDiagnosis
+    repacked: bool = False
+    time: float = 0.0
+    info: dict = field(default_factory=dict)
+    UV_in: np.ndarray | None = None
+    FUV_in: np.ndarray | None = None
+
+    @property
+    def unchanged(self):
+        return not self.changed_rows.any() and not self.changed_faces.any()
+
+    def summary(self):
+        """One line for the command line."""
+        a, b = self.before.validation, self.after.validation
+        if self.unchanged:
+            return "nothing to repair: the layout is valid and was left byte-identical"
+        ch = [i for i in self.islands if i["actions"]]
+        bit = 1.0 - self.changed_faces.mean() if len(self.changed_faces) else 1.0
+        return (f"{len(ch)} of {len(self.islands)} islands changed"
+                + (f", {len(self.new_charts)} new charts" if self.new_charts else "")
+                + f"; faces bit-identical {100 * bit:.1f}%; flips {a['flips']} -> {b['flips']}, "
+                f"overlapping island pairs {a['overlapping_pairs']} -> {b['overlapping_pairs']}, "
+                f"self-overlapping islands {a['self_overlapping_islands']} -> {b['self_overlapping_islands']}, "
+                f"in [0,1]²: {'yes' if b['uv_in_unit_square'] else 'no'}"
+                + ("; repacked" if self.repacked else "") + f"; {self.time:.1f}s")
+
+    def report(self):
+        """JSON-ready dict: before/after diagnosis, per-island diff, totals."""
+        from neuraluv import __version__
+        from neuraluv.io import jsonable
+
+        return jsonable({
+            "neuraluv": __version__, "unchanged": self.unchanged, "summary": self.summary(),
+            "faces": int(len(self.F)), "faces_changed": int(self.changed_faces.sum()),
+            "faces_bit_identical": float(1.0 - self.changed_faces.mean()) if len(self.F) else 1.0,
+            "rows_changed": int(self.changed_rows[: self.info.get("rows_in", len(self.changed_rows))].sum()),
+            "rows_added": int(len(self.UV) - self.info.get("rows_in", len(self.UV))),
+            "repacked": self.repacked, "islands": self.islands, "new_charts": self.new_charts,
+            "before": self.before.as_dict(), "after": self.after.as_dict(), "time": self.time, "info": self.info,
+        })
+
+    def figure(self, *, title=None):
+        """Before / after layouts, changed faces highlighted (matplotlib figure)."""
+        from neuraluv.plot import plot_repair
+
+        return plot_repair(self, title=title)
+
+
+def _procrustes_rotation(src, dst):
+    """Rotation (no reflection) and translation taking ``src`` closest to ``dst``: returns ``R (2,2)``, ``t (2,)``."""
+    cs, cd = src.mean(0), dst.mean(0)
+    H = (src - cs).T @ (dst - cd)
+    U, _, Vt = np.linalg.svd(H)
+    R = (U @ Vt).T
+    if np.linalg.det(R) < 0:
+        U[:, -1] *= -1
+        R = (U @ Vt).T
+    return R, cd - cs @ R.T
+
+
+def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadline):
+    """Re-solve an island as a chart (atlas router), scaled to ``density`` and fitted to where it was.
+
+    Returns the new rows ``[(face_ids, rows_uv (k,2), local faces (f,3)), ...]`` and the routes.
+    """
+    from neuraluv.atlas.candidates import chart_candidates
+    from neuraluv.atlas.routing import route_charts
+
+    T = FUV[faces]
+    rows = np.unique(T)
+    Fc = np.searchsorted(rows, T)
+    Vc = np.zeros((len(rows), 3))
+    Vc[Fc.reshape(-1)[::-1]] = Vn[F[faces].reshape(-1)[::-1]]
+    pieces, routes = [], []
+    for ch in route_charts(Vc, Fc, chart_candidates(Vc, Fc), cfg, seed=seed, device=device, deadline=deadline):
+        routes.append({"route": ch.route, "method": ch.method, "reason": ch.reason})
+        for fl, vl, Fl, uv in ch.islands:
+            new = np.asarray(uv, float) * density
+            old = UV[rows[vl]]
+            okp = np.isfinite(old).all(1)
+            if okp.sum() >= 2:
+                R, t = _procrustes_rotation(new[okp], old[okp])
+                new = new @ R.T + t
+            pieces.append((faces[fl], new, Fl, rows[vl]))
+    return pieces, routes
+
+
+def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", threads=None, resolution=1024,
+                  padding=2.0, time_budget=None, neural=True, **overrides):
+    """Repair a supplied UV layout, changing only what is broken.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array, optional
+        Per-corner ``vt`` indices (default ``F``); -1 where a face has none.
+    preset : str or SolverConfig
+        Neural solver preset for the steps that use it.
+    seed : int
+    device : str
+    threads : int, optional
+        torch CPU threads for the neural steps.
+    resolution, padding : int, float
+        Moved and new islands keep ``padding`` texels from every other island at ``resolution``.
+    time_budget : float, optional
+        Seconds after which running neural solves stop with their best valid map.
+    neural : bool
+        Allow the neural solver (local step 2 and whole-island re-solves).
+    **overrides
+        :class:`~neuraluv.solver.config.SolverConfig` fields for the neural steps.
+
+    Returns
+    -------
+    RepairResult
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> from neuraluv.tutte import tutte
+    >>> V, F = disk(n_rings=8); UV = tutte(V, F) * 0.4 + 0.5
+    >>> bad = UV.copy(); bad[0] += [0.1, 0.0]                  # fold the centre over its ring
+    >>> res = repair_layout(V, F, bad)
+    >>> res.before.validation["flips"] > 0, res.after.validation["flips"], res.islands[0]["actions"][0]["step"]
+    (True, 0, 'untangle+polish')
+    >>> bool(res.changed_faces.mean() < 0.2), repair_layout(V, F, UV).unchanged
+    (True, True)
+    """
+    from neuraluv.solver.config import get_config
+
+    t0 = time.perf_counter()
+    deadline = None if not time_budget else t0 + float(time_budget)
+    F = np.asarray(F, np.int64)
+    V = np.asarray(V, float)
+    if V.ndim != 2 or V.shape[1] != 3 or F.ndim != 2 or F.shape[1] != 3:
+        raise NeuralUVError("need V (n,3) and F (m,3)")
+    UV = np.asarray(UV, float).reshape(-1, 2)
+    FUV = F.copy() if FUV is None else np.asarray(FUV, np.int64)
+    if FUV.shape != F.shape:
+        raise NeuralUVError(f"texture indices have shape {FUV.shape}, faces {F.shape}")
+    cfg = get_config(preset, **overrides)
+    facts = layout_facts(V, F, UV, FUV)
+    before = diagnose_layout(V, F, UV, FUV, resolution=resolution, padding=padding, facts=facts)
+    p_in = len(UV)
+    if before.ok:
+        after = before
+        return RepairResult(V=V, F=F, UV=UV.copy(), FUV=FUV.copy(), changed_rows=np.zeros(p_in, bool),
+                            changed_faces=np.zeros(len(F), bool),
+                            islands=[{**_island_base(isl), "actions": []} for isl in before.islands],
+                            new_charts=[], before=before, after=after, time=time.perf_counter() - t0,
+                            info={"rows_in": p_in}, UV_in=UV, FUV_in=FUV)
+    Vn = facts.Vn
+    UVw = facts.UV.copy()
+    UVw[~np.isfinite(UVw).all(1)] = 0.0  # non-finite rows: their faces get new charts, the rows are neutralised
+    FUVw = facts.FUV.copy()
+    med = facts.median_density or 1.0
+    actions = {i: [] for i in range(facts.n_islands)}
+    movers_pref = set()  # islands (input labels) already changed: first choice when something must move
+
+    from neuraluv.solver.device import torch_threads
+
+    with torch_threads(threads):
+        for i in range(facts.n_islands):
+            fi = facts.island_faces(i)
+            dens = facts.density[i] if np.isfinite(facts.density[i]) else med
+            # 1. mirrored: reflect back about the island's centre
+            if facts.mirrored[i]:
+                rows = np.unique(FUVw[fi])
+                cx = 0.5 * (UVw[rows, 0].min() + UVw[rows, 0].max())
+                UVw[rows, 0] = 2.0 * cx - UVw[rows, 0]
+                actions[i].append({"step": "reflected", "rows": int(len(rows))})
+                movers_pref.add(i)
+            # 2./3. folds and self-overlaps, locally
+            det = _dets(Vn, F, UVw, FUVw, fi)
+            bad = fi[~(det > 0) & ~facts.degenerate3d[fi]]
+            over = _self_overlap_faces(UVw, FUVw, fi, det)
+            targets = np.unique(np.concatenate([bad, over]))
+            if not len(targets):
+                continue
+            targets = _with_stretched_neighbours(Vn, F, UVw, FUVw, fi, targets)
+            graph = IslandGraph(FUVw, fi, len(UVw))
+            escalate = False
+            for cl in face_clusters(FUVw, targets):
+                det_cl = _dets(Vn, F, UVw, FUVw, cl)
+                if (det_cl > 0).all() and not len(_self_overlap_faces(UVw, FUVw, fi, _dets(Vn, F, UVw, FUVw, fi), cl)):
+                    continue  # fixed by an earlier cluster's region
+                out, info = repair_cluster(Vn, F, UVw, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
+                                           deadline=deadline, neural=neural)
+                if out is None:
+                    escalate = True
+                    break
+                UVw = out
+                actions[i].append({k: info[k] for k in ("step", "rings", "extra_rings", "region_faces", "free_rows") if k in info}
+                                  | {"cluster_faces": int(len(cl)), "time": info["time"]})
+                movers_pref.add(i)
+            if escalate:
+                UVw, FUVw, act = _whole_island(Vn, F, UVw, FUVw, fi, dens, cfg, neural=neural, seed=seed, device=device,
+                                               deadline=deadline)
+                actions[i].append(act)
+                movers_pref.add(i)
+        # 4. faces without usable UVs: new charts
+        new_charts = []
+        lost = np.flatnonzero(facts.missing | facts.non_finite)
+        if len(lost):
+            UVw, FUVw, new_charts = _new_charts(Vn, F, UVw, FUVw, lost, med, cfg, seed=seed, device=device,
+                                                deadline=deadline)
+    # 5. overlaps between islands, out of the square, new islands: move the fewest
+    UVw, FUVw, placements, repacked = _separate(V, F, UVw, FUVw, facts, movers_pref, new_charts, resolution, padding)
+    for i, pl in placements.items():
+        if i >= 0:
+            actions[i].append(pl)
+    after = diagnose_layout(V, F, UVw, FUVw, resolution=resolution, padding=padding)
+    changed_rows = np.ones(len(UVw), bool)
+    changed_rows[:p_in] = ~_same_bits(UVw[:p_in], UV)
+    changed_faces = (FUVw != FUV).any(1) | changed_rows[FUVw].any(1)
+    islands = []
+    res_uv = UVw
+    for isl in before.islands:
+        i = isl["island"]
+        fi = facts.island_faces(i)
+        ch = changed_faces[fi]
+        disp = np.abs(res_uv[FUVw[fi]] - np.where(np.isfinite(UV[FUV[fi]]), UV[FUV[fi]], np.nan))
+        dmax = float(np.nanmax(disp)) * resolution if ch.any() and np.isfinite(disp).any() else 0.0
+        dens = facts.density[i] if np.isfinite(facts.density[i]) else med
+        e_before = region_esd(Vn, F, UV, FUV, fi, dens)
+        e_after = region_esd(Vn, F, res_uv, FUVw, fi, dens) if ch.any() else e_before
+        islands.append({**_island_base(isl), "actions": actions[i], "faces_changed": int(ch.sum()),
+                        "rows_changed": int(changed_rows[np.unique(FUV[fi])].sum()),
+                        "max_displacement_texels": dmax, "esd_before": e_before, "esd_after": e_after})
+    return RepairResult(V=V, F=F, UV=UVw, FUV=FUVw, changed_rows=changed_rows, changed_faces=changed_faces,
+                        islands=islands, new_charts=new_charts, before=before, after=after, repacked=repacked,
+                        time=time.perf_counter() - t0,
+                        info={"rows_in": p_in, "preset": preset if isinstance(preset, str) else "custom",
+                              "resolution": resolution, "padding": padding, "neural": neural},
+                        UV_in=UV, FUV_in=FUV)
+
+
+def _island_base(isl):
+    return {k: isl[k] for k in ("island", "faces", "uv_rows", "texel_density", "mirrored", "flipped", "degenerate",
+                                "self_overlap_pairs", "outside_unit_square")}
+
+
+def _same_bits(A, B):
+    """Rows of ``A`` and ``B`` equal bit for bit (NaN rows equal only to the same NaN bits)."""
+    return (np.ascontiguousarray(A).view(np.int64) == np.ascontiguousarray(B).view(np.int64)).all(1)
+
+
+def _dets(Vn, F, UV, FUV, faces):
+    from neuraluv.metrics import face_dets
+
+    faces = np.asarray(faces, np.int64)
+    return face_dets(Vn, F[faces], UV, FUV[faces]) if len(faces) else np.zeros(0)
+
+
+def _self_overlap_faces(UV, FUV, island, det, subset=None):
+    """Positive faces of ``island`` (or of ``subset``) overlapping another positive face of the island."""
+    from neuraluv.repair.overlap import candidate_pairs, overlapping_pairs
+
+    pos = island[det > 0]
+    if len(pos) < 2:
+        return np.zeros(0, np.int64)
+    tri = UV[FUV[pos]]
+    if subset is None:
+        a, b = candidate_pairs(tri)
+    else:
+        sub = np.flatnonzero(np.isin(pos, subset))
+        a, b = candidate_pairs(tri[sub], tri)
+        a = sub[a]
+        keep = a != b
+        a, b = a[keep], b[keep]
+    hit = overlapping_pairs(tri[a], tri[b])
+    return np.unique(np.concatenate([pos[a[hit]], pos[b[hit]]]))
+
+
+def _with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
+    """``targets`` plus the severely stretched faces joined to them: a fold's damage beyond its flipped faces.
+
+    A face is severely stretched when its conformal distortion σ_max/σ_min (scale-free, so a conformal map's
+    shrunken parts do not count) is above ``factor`` and above ``factor`` times the island's median. Only
+    such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a stretched
+    face elsewhere is the layout's own and stays untouched.
+    """
+    from neuraluv.metrics import corner_jacobians, face_metrics
+
+    ok = np.setdiff1d(island, targets)
+    if not len(ok):
+        return targets
+    conf = face_metrics(corner_jacobians(Vn, F[ok], UV, FUV[ok])[0])["conformal"]
+    fin = conf[np.isfinite(conf)]
+    if not len(fin):
+        return targets
+    stretched = ok[conf > factor * max(1.0, float(np.median(fin)))]
+    if not len(stretched):
+        return targets
+    cand = np.concatenate([targets, stretched])
+    keep = [c for c in face_clusters(FUV, cand) if np.isin(c, targets).any()]
+    return np.unique(np.concatenate(keep))
+
+
+def _whole_island(Vn, F, UV, FUV, faces, density, cfg, *, neural, seed, device, deadline):
+    """Last resorts for one island: untangle it whole (free boundary), else re-solve it as a chart."""
+    rows = np.unique(FUV[faces])
+    t0 = time.perf_counter()
+    try:
+        out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density)
+    except ValueError:
+        out, info = UV, {"ok": False}
+    if info["ok"] and region_overlaps(out, FUV, faces, faces) == 0:
+        out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density)
+        if region_overlaps(out2, FUV, faces, faces):
+            out2 = out
+        return out2, FUV, {"step": "untangle whole island", "rows": int(len(rows)), "time": time.perf_counter() - t0}
+    pieces, routes = _resolve_island(Vn, F, UV, FUV, faces, density, cfg, seed=seed, device=device, deadline=deadline)
+    UVo, FUVo = UV.copy(), FUV.copy()
+    if len(pieces) == 1 and len(pieces[0][3]) == len(rows) and np.array_equal(np.sort(pieces[0][3]), rows):
+        fidx, new, Fl, vrows = pieces[0]
+        UVo[vrows] = new  # same rows, same faces: overwrite in place
+        FUVo[fidx] = vrows[Fl]
+    else:
+        for fidx, new, Fl, _ in pieces:
+            base = len(UVo)
+            UVo = np.vstack([UVo, new])
+            FUVo[fidx] = Fl + base
+    return UVo, FUVo, {"step": "re-solved as a chart", "pieces": len(pieces), "routes": routes,
+                       "time": time.perf_counter() - t0}
+
+
+def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
+    """Charts for the faces ``lost`` (no usable UVs), solved by the atlas router, appended as new rows."""
+    from neuraluv.atlas.candidates import chart_candidates
+    from neuraluv.atlas.routing import route_charts
+    from neuraluv.topology import submesh
+
+    from neuraluv.atlas.routing import fallback_islands
+
+    vi, Fl = submesh(F, lost)
+    Vl = Vn[vi]
+    UVo, FUVo = UV.copy(), FUV.copy()
+    out = []
+    try:
+        charts = [(ch.route, ch.method, ch.reason, ch.islands)
+                  for ch in route_charts(Vl, Fl, chart_candidates(Vl, Fl), cfg, seed=seed, device=device, deadline=deadline)]
+    except Exception as exc:  # noqa: BLE001 - a messy face set (non-manifold, degenerate): per-piece fallback
+        method, islands, why = fallback_islands(Vl, Fl, np.arange(len(Fl)), f"charting failed ({type(exc).__name__})")
+        charts = [("fallback", method, why, islands)]
+    for route, method, reason, islands in charts:
+        for fl, vl, Fp, uv in islands:
+            base = len(UVo)
+            UVo = np.vstack([UVo, np.asarray(uv, float) * density])
+            FUVo[lost[fl]] = Fp + base
+            out.append({"faces": int(len(fl)), "route": route, "method": method, "reason": reason})
+    return UVo, FUVo, out
+
+
+def _separate(V, F, UV, FUV, facts0, prefer, new_charts, resolution, padding):
+    """Move the fewest islands so that none overlaps another or leaves [0,1]²; new islands are placed too.
+
+    Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action}, repacked``.
+    """
+    f = layout_facts(V, F, UV, FUV)
+    # map current islands to input islands (-1: new)
+    origin = -np.ones(f.n_islands, np.int64)
+    for j in range(f.n_islands):
+        fj = f.island_faces(j)
+        lab0 = facts0.label[fj]
+        lab0 = lab0[lab0 >= 0]
+        if len(lab0):
+            origin[j] = np.bincount(lab0).argmax()
+    ii, jj, _ = find_overlaps(f)
+    li, lj = f.label[ii], f.label[jj]
+    cross = li != lj
+    edges = {(int(min(a, b)), int(max(a, b))) for a, b in zip(li[cross], lj[cross])}
+    area = np.bincount(f.label[f.usable], weights=np.abs(np.nan_to_num(f.signed_uv[f.usable])), minlength=f.n_islands)
+    must = set()
+    for j in range(f.n_islands):
+        rows = np.unique(f.FUV[f.island_faces(j)])
+        if origin[j] < 0 or UV[rows].min() < 0 or UV[rows].max() > 1:
+            must.add(j)
+    edges = {e for e in edges if e[0] not in must and e[1] not in must}
+    movers = set(must)
+    while edges:
+        deg = {}
+        for a, b in edges:
+            deg[a] = deg.get(a, 0) + 1
+            deg[b] = deg.get(b, 0) + 1
+        pick = max(deg, key=lambda j: (deg[j], origin[j] in prefer, -area[j]))
+        movers.add(pick)
+        edges = {e for e in edges if pick not in e}
+    if not movers:
+        return UV, FUV, {}, False
+    fixed = [island_polygon(UV, f.FUV[f.island_faces(j)]) for j in range(f.n_islands) if j not in movers]
+    grid = min(max(int(resolution), 256), 4096)
+    occ = occupancy(fixed, grid, float(padding) / float(resolution))
+    UVo = UV.copy()
+    FUVo = FUV.copy()
+    placements = {}
+    order = sorted(movers, key=lambda j: -area[j])
+    failed = False
+    for j in order:
+        fj = f.island_faces(j)
+        rows = np.unique(f.FUV[fj])
+        T = np.searchsorted(rows, f.FUV[fj])
+        pl = None
+        for scales in ((1.0,), SHRINK_SCALES[1:]):
+            pl = place_island(UVo[rows], T, fixed, resolution=resolution, padding=padding, grid=grid, occ=occ,
+                              scales=scales)
+            if pl.uv is not None:
+                break
+        if pl is None or pl.uv is None:
+            failed = True
+            break
+        UVo[rows] = pl.uv
+        P = island_polygon(UVo, f.FUV[fj])
+        fixed.append(P)
+        occ |= occupancy([P], grid, float(padding) / float(resolution))
+        key = int(origin[j]) if origin[j] >= 0 else -1 - len([k for k in placements if k < 0])
+        placements[key] = {"step": "moved", "quarter_turns": pl.turns, "scale": pl.scale,
+                           "shift": [float(x) for x in pl.shift], "distance": pl.distance,
+                           "why": ("new" if origin[j] < 0 else "outside [0,1]²" if j in must else "overlap")}
+    if not failed:
+        return UVo, FUVo, placements, False
+    # nothing else fits: repack every island at a common scale (reported)
+    from neuraluv.packing import rotate_to_min_box, shelf_pack
+
+    uvs, tris, parts = [], [], []
+    for j in range(f.n_islands):
+        fj = f.island_faces(j)
+        rows = np.unique(f.FUV[fj])
+        uvs.append(rotate_to_min_box(UV[rows]))
+        tris.append(np.searchsorted(rows, f.FUV[fj]))
+        parts.append(fj)
+    pk = shelf_pack(uvs, tris, padding=padding, resolution=resolution)
+    UVr = UV.copy()
+    base = len(UVr)
+    new_rows = []
+    for fj, Tl, u in zip(parts, tris, pk.uvs):
+        FUVo[fj] = Tl + base
+        new_rows.append(u)
+        base += len(u)
+    UVr = np.vstack([UVr] + new_rows)
+    placements = {int(origin[j]) if origin[j] >= 0 else -1 - j: {"step": "repacked"} for j in range(f.n_islands)}
+    return UVr, FUVo, placements, True

@@ -1,0 +1,293 @@
+"""UV repair with minimal change: diagnosis, local untangling, island moves, new charts, the OBJ patch, the CLI."""
+import numpy as np
+
+from neuraluv import datasets
+from neuraluv.io import read_obj
+from neuraluv.metrics import distortion_metrics, face_dets
+from neuraluv.repair import damage
+from neuraluv.repair.diagnose import diagnose_layout, layout_facts
+from neuraluv.repair.overlap import overlapping_pairs, pair_areas
+from neuraluv.repair.repair import repair_layout
+from neuraluv.repair.untangle import polish, reference_scale, untangle
+from neuraluv.tutte import tutte
+
+
+def _two_islands():
+    """Two disks side by side in the unit square (one layout, two islands)."""
+    V, F = datasets.spherical_cap(5)
+    UV = tutte(V, F)
+    UV = (UV - UV.min(0)) / np.ptp(UV, axis=0).max() * 0.4
+    V2 = np.vstack([V, V + [3.0, 0, 0]])
+    F2 = np.vstack([F, F + len(V)])
+    UV2 = np.vstack([UV + [0.05, 0.3], UV + [0.55, 0.3]])
+    return V2, F2, UV2, F2.copy(), np.arange(len(F)), np.arange(len(F), 2 * len(F))
+
+
+def _flat_disk(n_rings=16):
+    V, F = datasets.disk(n_rings)
+    UV = tutte(V, F) * 0.4 + 0.5
+    # relax to a good map first, so "undamaged" is a meaningful reference
+    s = reference_scale(V, F, UV)
+    UV, _ = polish(V, F, UV, F, np.arange(len(F)), np.arange(len(V)), scale=s, max_iter=300)
+    return V, F, UV
+
+
+# ---------------------------------------------------------------- building blocks
+
+
+def test_overlap_test_agrees_with_exact_polygon_areas():
+    rng = np.random.default_rng(0)
+    P = rng.random((400, 3, 2))
+    Q = rng.random((400, 3, 2)) * 0.6 + 0.2
+    sat = overlapping_pairs(P, Q)
+    area = pair_areas(P, Q)
+    assert np.array_equal(sat, area > 1e-12)
+    assert 50 < sat.sum() < 400  # both outcomes occur
+
+
+def test_untangle_only_moves_free_rows_and_leaves_no_flip():
+    V, F, UV = _flat_disk()
+    bad, info = damage.local_fold(V, F, UV, F, rings=2, seed=1)
+    assert info["flipped"] > 0
+    dist = damage.row_rings(F, len(V), info["center"], 4)
+    free = np.flatnonzero(dist >= 0)
+    region = np.flatnonzero(np.isin(F, free).any(1))
+    out, uinfo = untangle(V, F, bad, F, region, free, scale=reference_scale(V, F, UV))
+    assert uinfo["ok"] and (face_dets(V, F, out) > 0).all()
+    fixed = np.setdiff1d(np.arange(len(V)), free)
+    assert out[fixed].tobytes() == bad[fixed].tobytes()
+
+
+def test_polish_lowers_the_energy_without_flipping():
+    V, F, UV = _flat_disk()
+    rng = np.random.default_rng(3)
+    noisy = UV + rng.normal(scale=2e-3, size=UV.shape)
+    assert (face_dets(V, F, noisy) > 0).all()
+    s = reference_scale(V, F, UV)
+    out, info = polish(V, F, noisy, F, np.arange(len(F)), np.arange(len(V)), scale=s)
+    assert info["energy_after"] < info["energy_before"]
+    assert distortion_metrics(V, F, out)["flips"] == 0
+
+
+# ---------------------------------------------------------------- diagnosis
+
+
+def test_diagnosis_names_every_kind_of_problem():
+    V, F, UV, FUV, a, b = _two_islands()
+    assert diagnose_layout(V, F, UV, FUV).ok
+    kinds = {}
+    uv, _ = damage.mirror_island(UV, FUV, a)
+    kinds["mirrored_island"] = uv
+    uv, _ = damage.overlap_islands(UV, FUV, a, b)
+    kinds["island_overlap"] = uv
+    uv, _ = damage.push_out(UV, FUV, a)
+    kinds["outside_unit_square"] = uv
+    uv = UV.copy()
+    uv[FUV[a[0], 0]] = np.nan
+    kinds["non_finite_uv"] = uv
+    for kind, uv in kinds.items():
+        d = diagnose_layout(V, F, uv, FUV)
+        assert kind in [p["kind"] for p in d.problems], (kind, [p["kind"] for p in d.problems])
+        assert all(p["action"] for p in d.problems)
+    FUVm = FUV.copy()
+    FUVm[b[:3]] = -1
+    d = diagnose_layout(V, F, UV, FUVm)
+    assert [p["kind"] for p in d.problems] == ["missing_uv"] and d.problems[0]["faces"] == 3
+    text = d.format("x.obj")
+    assert "faces without texture coordinates" in text and "new charts" in text
+
+
+def _wound_strip(turns=1.15, n=60):
+    """A straight 3D strip laid out in UV along a circle of more than one turn: every triangle positive,
+    the island overlaps itself."""
+    t = np.linspace(0, 2 * np.pi * turns, n)
+    UV = np.empty((2 * n, 2))
+    UV[0::2] = np.c_[np.cos(t), np.sin(t)]
+    UV[1::2] = 1.3 * np.c_[np.cos(t), np.sin(t)]
+    F = np.array([f for k in range(n - 1) for f in ([2 * k, 2 * k + 1, 2 * k + 2], [2 * k + 1, 2 * k + 3, 2 * k + 2])])
+    s = np.r_[0, np.cumsum(np.full(n - 1, 1.15 * np.diff(t)[0]))]
+    V = np.zeros((2 * n, 3))
+    V[0::2, 0], V[1::2, 0], V[1::2, 1] = s, s, 0.3
+    return V, F, UV * 0.3 + 0.5
+
+
+def test_self_overlap_without_flips_is_found_and_repaired():
+    V, F, UV = _wound_strip()
+    f = layout_facts(V, F, UV, F)
+    assert (f.det > 0).all()
+    d = diagnose_layout(V, F, UV, F)
+    assert [p["kind"] for p in d.problems] == ["self_overlap"]
+    res = repair_layout(V, F, UV, F, preset="test")
+    assert res.after.validation["valid"], res.after.validation
+
+
+# ---------------------------------------------------------------- repair: minimal change
+
+
+def test_local_fold_is_repaired_locally():
+    V, F, UV = _flat_disk()
+    bad, info = damage.local_fold(V, F, UV, F, rings=2, seed=0)
+    res = repair_layout(V, F, bad, F)
+    assert res.before.validation["flips"] > 0 and res.after.validation["valid"]
+    same = (res.UV[res.FUV] == bad[F]).all(axis=(1, 2))
+    damaged = (bad[F] != UV[F]).any(axis=(1, 2))
+    assert (~same).sum() <= 4 * damaged.sum() and same.mean() >= 0.85  # the repair stays near the damage
+    assert res.islands[0]["actions"][0]["step"].startswith("untangle")
+    s = reference_scale(V, F, UV)
+    e0 = distortion_metrics(V, F, UV / s)["esd"]
+    e1 = distortion_metrics(V, F, res.UV / s, res.FUV)["esd"]
+    assert e1 <= 1.05 * e0
+
+
+def test_mirrored_island_is_reflected_not_resolved():
+    V, F, UV, FUV, a, b = _two_islands()
+    uv, _ = damage.mirror_island(UV, FUV, a)
+    res = repair_layout(V, F, uv, FUV)
+    assert res.after.validation["valid"]
+    steps = [s["step"] for s in res.islands[0]["actions"]]
+    assert steps == ["reflected"]
+    assert np.allclose(res.UV[np.unique(FUV[a])], UV[np.unique(FUV[a])], atol=1e-12)  # back where it was
+    assert res.UV[np.unique(FUV[b])].tobytes() == UV[np.unique(FUV[b])].tobytes()
+
+
+def test_overlapping_islands_move_only_one_without_scaling():
+    V, F, UV, FUV, a, b = _two_islands()
+    uv, _ = damage.overlap_islands(UV, FUV, a, b)
+    res = repair_layout(V, F, uv, FUV, padding=2.0, resolution=1024)
+    v = res.after.validation
+    assert v["valid"] and v["overlapping_pairs"] == 0
+    moved = [i for i in res.islands if i["actions"]]
+    assert len(moved) == 1 and moved[0]["actions"][0]["scale"] == 1.0
+    other = b if moved[0]["island"] == 0 else a
+    assert res.UV[np.unique(FUV[other])].tobytes() == uv[np.unique(FUV[other])].tobytes()
+    # rigid: edge lengths of the moved island unchanged
+    mv = a if moved[0]["island"] == 0 else b
+    e0 = np.linalg.norm(uv[FUV[mv, 1]] - uv[FUV[mv, 0]], axis=1)
+    e1 = np.linalg.norm(res.UV[res.FUV[mv, 1]] - res.UV[res.FUV[mv, 0]], axis=1)
+    assert np.allclose(e0, e1, rtol=1e-9)
+
+
+def test_island_outside_the_square_is_moved_in():
+    V, F, UV, FUV, a, b = _two_islands()
+    uv, _ = damage.push_out(UV, FUV, b, shift=(0.5, 0.0))
+    res = repair_layout(V, F, uv, FUV)
+    assert res.after.validation["valid"] and res.after.validation["uv_in_unit_square"]
+
+
+def test_nan_and_missing_uvs_get_new_charts_and_the_rest_is_untouched():
+    V, F, UV, FUV, a, b = _two_islands()
+    uv = UV.copy()
+    rows = np.unique(FUV[a[:4]])
+    uv[rows[0]] = np.nan
+    res = repair_layout(V, F, uv, FUV, preset="test")
+    assert res.after.validation["valid"] and res.new_charts
+    assert res.UV[np.unique(FUV[b])].tobytes() == uv[np.unique(FUV[b])].tobytes()
+    FUVm = FUV.copy()
+    FUVm[b[:5]] = -1
+    res = repair_layout(V, F, UV, FUVm, preset="test")
+    assert res.after.validation["valid"] and res.after.validation["covered_faces"] == len(F)
+
+
+def test_a_valid_layout_comes_back_unchanged():
+    V, F, UV, FUV, a, b = _two_islands()
+    res = repair_layout(V, F, UV, FUV)
+    assert res.unchanged and res.UV.tobytes() == UV.tobytes() and "nothing to repair" in res.summary()
+
+
+def test_neural_step_pins_the_ring():
+    from neuraluv.repair.local import neural_region
+
+    V, F, UV = _flat_disk()
+    s = reference_scale(V, F, UV)
+    dist = damage.row_rings(F, len(V), int(np.argmin(np.linalg.norm(V, axis=1))), 3)
+    free = np.flatnonzero(dist >= 0)
+    region = np.flatnonzero(np.isin(F, free).any(1))
+    noisy = UV.copy()
+    noisy[free] += np.random.default_rng(0).normal(scale=1e-3, size=(len(free), 2))
+    assert (face_dets(V, F, noisy) > 0).all()
+    out, res = neural_region(V, F, noisy, F, region, free, s, "test", device="cpu")
+    pinned = np.setdiff1d(np.unique(F[region]), free)
+    assert len(pinned) and out[pinned].tobytes() == noisy[pinned].tobytes()
+    assert res.status == "neural" and (face_dets(V, F, out) > 0).all()
+    assert not np.array_equal(out[free], noisy[free])
+
+
+# ---------------------------------------------------------------- the OBJ patch and the CLI
+
+
+def test_patch_obj_keeps_every_other_line(tmp_path):
+    from neuraluv.io import patch_obj
+
+    src = tmp_path / "in.obj"
+    text = ("# header\r\nmtllib x.mtl\r\nv 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nv 0 1 0\r\nvn 0 0 1\r\n"
+            "vt 0.1 0.1\r\nvt 0.4 0.1\r\nvt 0.4 0.4\r\nvt 0.1 0.4\r\ng quad\r\nusemtl m\r\n"
+            "f 1/1/1 2/2/1 3/3/1 4/4/1 # a quad\r\nf -4/-4/1 -3/-3/1 -1/-1/1\r\n")
+    src.write_bytes(text.encode())
+    data = read_obj(src, keep_lines=True)
+    V, F, UV, FUV = data
+    # unchanged: identical bytes
+    patch_obj(src, tmp_path / "same.obj", UV, FUV, data=data)
+    assert (tmp_path / "same.obj").read_bytes() == src.read_bytes()
+    # one row moved, one face given new rows
+    UV2 = np.vstack([UV, [[0.7, 0.7], [0.9, 0.7], [0.9, 0.9]]])
+    UV2[0] = [0.12, 0.1]
+    FUV2 = FUV.copy()
+    FUV2[2] = [4, 5, 6]
+    info = patch_obj(src, tmp_path / "new.obj", UV2, FUV2, data=data)
+    assert info == {"vt_lines_changed": 1, "vt_lines_added": 3, "f_lines_changed": 1}
+    out = (tmp_path / "new.obj").read_bytes().decode()
+    for keep in ("# header\r\n", "mtllib x.mtl\r\n", "vn 0 0 1\r\n", "g quad\r\n", "usemtl m\r\n",
+                 "f 1/1/1 2/2/1 3/3/1 4/4/1 # a quad\r\n"):
+        assert keep in out
+    V3, F3, UV3, FUV3 = read_obj(tmp_path / "new.obj")
+    assert np.array_equal(F3, F) and np.array_equal(FUV3, FUV2) and np.array_equal(UV3, UV2)
+
+
+def _write_layout(path, V, F, UV, FUV):
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in V] + [f"vt {u:.17g} {v:.17g}" for u, v in UV]
+    lines += [f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}" for (a, b, c), (ta, tb, tc) in zip(F, FUV)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_cli_check_uv_and_repair(tmp_path, capsys):
+    import json
+
+    from neuraluv.cli import main
+
+    V, F, UV, FUV, a, b = _two_islands()
+    good = tmp_path / "good.obj"
+    _write_layout(good, V, F, UV, FUV)
+    assert main(["check", "--uv", str(good)]) == 0
+    assert "nothing to repair" in capsys.readouterr().out
+    assert main(["repair", str(good), "-o", str(tmp_path / "same.obj"), "--quiet"]) == 0
+    assert (tmp_path / "same.obj").read_bytes() == good.read_bytes()
+    assert "nothing to repair" in capsys.readouterr().out
+    uv, _ = damage.overlap_islands(UV, FUV, a, b)
+    uv, _ = damage.mirror_island(uv, FUV, b)
+    broken = tmp_path / "broken.obj"
+    _write_layout(broken, V, F, uv, FUV)
+    assert main(["check", "--uv", str(broken), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert {"mirrored_island", "island_overlap"} <= {p["kind"] for p in rep["problems"]}
+    code = main(["repair", str(broken), "-o", str(tmp_path / "fixed.obj"), "--report", str(tmp_path / "r.json"),
+                 "--figure", str(tmp_path / "r.png"), "--quiet"])
+    assert code == 0, capsys.readouterr()
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["readback"]["valid"] and r["after"]["ok"]
+    assert (tmp_path / "r.png").stat().st_size > 1000
+    d = diagnose_layout(*read_obj(tmp_path / "fixed.obj"))
+    assert d.ok, [p["kind"] for p in d.problems]
+
+
+def test_bench_repair_quick(tmp_path):
+    from neuraluv.bench.repair import bench
+
+    out = bench(output=tmp_path, quick=True, preset="fast", mouette=False, show_progress=False)
+    gen = [r for r in out.rows if r["case"] != "as produced"]
+    assert gen and all(r["fixed"] for r in gen), [(r["case"], r["fixed"]) for r in gen]
+    fold = [r for r in gen if r["case"] == "local fold"][0]
+    # the glove is small (882 faces): judge the repaired region against the damaged one, not the whole island
+    changed = round((1 - fold["bit_identical_island"]) * fold["faces"])
+    assert changed <= 4 * fold["damage"]["faces"], (changed, fold["damage"])
+    assert fold["esd_ratio"] <= 1.05
+    assert (tmp_path / "repair.md").exists() and (tmp_path / "repair.csv").exists()
