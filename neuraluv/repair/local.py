@@ -5,14 +5,14 @@ For one cluster of folded faces (flipped or degenerate, joined through shared
 first step that gives a valid region (every face ``det J > 0``, no triangle of
 the region overlapping another of the island):
 
-1. **untangle + polish** in a region grown ring by ring (0, 1, 2, 3, 4, 6, 8, …
+1. **untangle + polish** in a region grown ring by ring (the cluster's inner rows, then 0, 1, 2, 3, 4, 6, 8, …
    rings of texture vertices around the cluster): the rows in the region move,
    its outer ring stays pinned; :func:`~neuraluv.repair.untangle.untangle`
    (Garanzha et al. 2021) removes the folds, :func:`~neuraluv.repair.untangle.polish`
    lowers the paper's stable objective with flip-free steps. The first region
-   that works is then grown one ring at a time while it is more distorted than
-   the untouched faces around it and growing lowers the distortion by more than
-   1% (rows the damage moved without folding them are freed too);
+   that works is then grown one ring at a time while the next ring is more
+   distorted than the faces further out and growing lowers the distortion by
+   more than 1% (rows the damage moved without folding them are freed too);
    when the polish stops on its iteration cap, the neural solver continues from
    it (step 2's solver);
 2. **the neural solver on the region with its ring pinned**, from a Tutte map of
@@ -78,6 +78,14 @@ def region_esd(Vn, F, UV, FUV, faces, scale):
 
     m = distortion_metrics(Vn, F[faces], UV / scale, FUV[faces])
     return float(m["esd"]) if m["valid"] else float("inf")
+
+
+def _median_esd(Vn, F, UV, FUV, faces, scale):
+    """Median per-face E_SD of ``faces`` with the layout scaled by ``1/scale``."""
+    from neuraluv.metrics import corner_jacobians, face_metrics
+
+    sd = face_metrics(corner_jacobians(Vn, F[faces], UV / scale, FUV[faces])[0])["sd"]
+    return float(np.median(sd)) if len(sd) else float("inf")
 
 
 def _tutte_inside(UV, FUV, faces, free):
@@ -185,7 +193,7 @@ def _try_neural(Vn, F, UV, FUV, region, free, scale, config, seed, device, deadl
 
 
 def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed=0, device="cpu", deadline=None,
-                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.02):
+                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1):
     """Repair one fold cluster in the smallest region that works (see the module docstring).
 
     Parameters
@@ -211,9 +219,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         Allow the neural steps.
     max_extra_rings, grow_gain, band_tol : int, float, float
         After the first region that works, grow it one ring at a time (at most
-        ``max_extra_rings``) while its E_SD is more than ``band_tol`` (relative)
-        above that of the untouched faces up to three rings around it, and
-        while growing lowers the energy over the grown region and one ring
+        ``max_extra_rings``) while the faces of the next ring are more than
+        ``band_tol`` (relative) more distorted than the median face two to
+        four rings out, and growing lowers the energy over the grown region and one ring
         beyond by more than ``grow_gain``: rows the damage moved without folding
         are freed too, but a layout that was merely not optimal is not
         "improved" beyond its neighbourhood's quality.
@@ -223,7 +231,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     UV : (p,2) float array or None
         The repaired copy (None: escalate to the whole island).
     info : dict
-        ``step``, ``rings``, ``region_faces``, ``free_rows``, ``time``, and the
+        ``step``, ``rings`` (-1: only the rows inside the cluster), ``region_faces``, ``free_rows``, ``time``, and the
         sub-steps' details.
     """
     t0 = time.perf_counter()
@@ -254,14 +262,28 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         det["polish"] = pinfo
         return out2, det
 
+    # first the cluster's inner rows only (every face around them is in the cluster): a fold's damage is often
+    # just those, and freeing them leaves the cluster's rim rows, and every face beyond, bit-identical
+    in_cluster = np.zeros(len(F), bool)
+    in_cluster[cluster] = True
+    touched = sp.csr_matrix((np.ones(3 * len(graph.faces)), (np.repeat(np.arange(len(graph.faces)), 3),
+                                                             FUV[graph.faces].reshape(-1))), shape=(len(graph.faces), n_rows))
+    outside = (touched.T @ (~in_cluster[graph.faces]).astype(float)) > 0
+    inner = seed_rows & ~outside
+    schedule = ([-1] if inner.any() and (inner != seed_rows).any() else []) + list(RING_SCHEDULE)
     rows = seed_rows.copy()
     done_r = 0
     last = None
     tried = []
     found = None
-    for r in RING_SCHEDULE:
-        for _ in range(r - done_r):
-            rows = graph.grow(rows)
+    for r in schedule:
+        if r < 0:
+            rows = inner.copy()
+        else:
+            if done_r < 0:
+                rows, done_r = seed_rows.copy(), 0
+            for _ in range(r - done_r):
+                rows = graph.grow(rows)
         done_r = r
         region = graph.faces_touching(rows)
         whole = len(region) == len(island) and not (graph.grow(rows) & ~rows).any()
@@ -290,12 +312,16 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
             region_b = graph.faces_touching(bigger)
             if len(region_b) > max_fraction * len(island) or (bigger == rows).all():
                 break
-            # the neighbourhood's own quality is the target: once the region is as good as the untouched faces
-            # around it (within ``band_tol``), growing would only "improve" the user's layout, not repair it
+            # grow only while the damage goes on: the faces of the next ring (area-weighted mean) are more distorted
+            # than a typical face further out (the median over rings 2-4; a median, as the damage may reach
+            # there too) by more than ``band_tol``; otherwise growing would only
+            # "improve" the user's layout, not repair it
             region, sc = det["region"], det["scale"]
-            band = np.setdiff1d(graph.faces_touching(graph.grow(graph.grow(graph.grow(rows)))), region)
-            if len(band) and region_esd(Vn, F, out, FUV, region, sc) <= (1.0 + band_tol) * region_esd(
-                    Vn, F, out, FUV, band, sc):
+            near = graph.faces_touching(bigger)
+            ring = np.setdiff1d(near, region)
+            far = np.setdiff1d(graph.faces_touching(graph.grow(graph.grow(graph.grow(bigger)))), near)
+            if len(ring) and len(far) and region_esd(Vn, F, out, FUV, ring, sc) <= (1.0 + band_tol) * _median_esd(
+                    Vn, F, out, FUV, far, sc):
                 break
             out_b, det_b = attempt(bigger)
             if out_b is None:
