@@ -228,7 +228,10 @@ def command_line(name, args=None):
     if args is not None and getattr(args, "_argv", None):
         return "neuraluv " + " ".join(shlex.quote(a) for a in args._argv)
     argv = sys.argv[1:]
-    if "bench" in argv and sys.argv and os.path.basename(sys.argv[0]).startswith("neuraluv"):
+    prog = sys.argv[0] if sys.argv else ""
+    via_cli = os.path.basename(prog).startswith("neuraluv") or (
+        os.path.basename(prog) == "__main__.py" and os.path.basename(os.path.dirname(prog)) == "neuraluv")
+    if "bench" in argv and via_cli:  # `neuraluv bench ...` or `python -m neuraluv bench ...`
         return "neuraluv " + " ".join(shlex.quote(a) for a in argv)
     if args is None:
         return f"neuraluv bench {name} (Python API)"
