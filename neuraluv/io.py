@@ -4,6 +4,8 @@ Reading goes through trimesh (OBJ, OFF, PLY, STL, GLB, ...) and libigl for
 tetrahedral ``.mesh`` files (whose boundary surface is returned). Writing is
 atomic: a file is first written next to its destination and then renamed, so an
 interrupted run never leaves a half-written output behind.
+
+Size: one module on purpose — every reader and writer shares the atomic-write, path and error conventions, and ``patch_obj`` must mirror ``read_obj``'s line bookkeeping exactly.
 """
 from __future__ import annotations
 

@@ -23,6 +23,8 @@ its end-to-end time is *projected* from the measured iterations and marked so.
 ``--pareto`` instead runs the Pareto study of the ``fast`` preset's design
 (network width and depth, ω₀, optimiser, budget) on the compact charts and
 writes ``pareto.{csv,md,png}`` with the paper's Pareto points and SLIM's.
+
+Size: three related runners (the speed table, the Pareto study, atlas throughput) share the chart set, the timing helpers and the SLIM reference; splitting them would split those.
 """
 from __future__ import annotations
 

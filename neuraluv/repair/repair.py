@@ -21,6 +21,8 @@ and fixes each problem with the smallest change that works, in this order:
 Every other ``vt`` row stays bit-identical; the result records, per island,
 what changed (faces, rows, the largest UV displacement in texels) and the
 before/after distortion. A layout with nothing wrong is returned unchanged.
+
+Size: the escalation of :func:`repair_layout` (reflect, local, whole island, new charts, separation) and its report are read top to bottom as one procedure; the steps themselves live in :mod:`~neuraluv.repair.local`, :mod:`~neuraluv.repair.place` and :mod:`~neuraluv.repair.untangle`.
 """
 from __future__ import annotations
 

@@ -25,6 +25,8 @@ Two optimisers share that loop:
   history slot for all charts (a zero pair, i.e. a no-op, for charts that did
   not move), so all charts share one ring buffer and no per-chart gather is
   needed.
+
+Size: the loop, its batch layout and both optimisers' per-chart acceptance are one algorithm (Algorithm 1, lines 4-13) whose parts share tensors and invariants; they are kept together so the checks can be read next to the steps they guard.
 """
 from __future__ import annotations
 

@@ -30,6 +30,8 @@ Conventions (the paper leaves them open; these are ours):
   ``0 ≤ s_r ≤ 1`` holds exactly; FPS samples are close to area-uniform, so the
   mass weights would change little. ``constant=False`` drops the constant
   mode (``Ψ_r = ψ_1..ψ_r``).
+
+Size: the probes (Gram matrix, eigenvectors, alignment, trajectories) share one chart preparation and the sampling; Table 5's runner uses them all.
 """
 from __future__ import annotations
 
