@@ -266,9 +266,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     # just those, and freeing them leaves the cluster's rim rows, and every face beyond, bit-identical
     in_cluster = np.zeros(len(F), bool)
     in_cluster[cluster] = True
-    touched = sp.csr_matrix((np.ones(3 * len(graph.faces)), (np.repeat(np.arange(len(graph.faces)), 3),
-                                                             FUV[graph.faces].reshape(-1))), shape=(len(graph.faces), n_rows))
-    outside = (touched.T @ (~in_cluster[graph.faces]).astype(float)) > 0
+    outside = (graph.MT @ (~in_cluster[graph.faces]).astype(float)) > 0  # rows of a face outside the cluster
     inner = seed_rows & ~outside
     schedule = ([-1] if inner.any() and (inner != seed_rows).any() else []) + list(RING_SCHEDULE)
     rows = seed_rows.copy()
