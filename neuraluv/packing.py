@@ -14,7 +14,10 @@ import numpy as np
 
 from neuraluv.jacobian import signed_areas_2d
 
-__all__ = ["PackResult", "shelf_pack", "rotate_to_min_box", "xatlas_pack"]
+#: Packers of :func:`neuraluv.atlas.build_atlas` (the first is the default).
+PACKERS = ("tight", "shelf", "xatlas")
+
+__all__ = ["PACKERS", "PackResult", "shelf_pack", "rotate_to_min_box", "xatlas_pack", "tight_pack", "island_density", "upright"]
 
 
 @dataclass
@@ -29,6 +32,7 @@ class PackResult:
     utilisation : float, summed chart UV area / area of the unit square.
     padding_texels : float, the smallest gap between two boxes in texels at
         ``resolution`` (inf for a single chart; None without a resolution).
+    pages : (c,) int array or None, the texture page (UDIM tile) of each chart.
     """
 
     uvs: list
@@ -36,6 +40,7 @@ class PackResult:
     offsets: np.ndarray
     utilisation: float
     padding_texels: float | None = None
+    pages: np.ndarray | None = None
 
 
 def _layout(sizes, gap, width):
@@ -238,3 +243,238 @@ def xatlas_pack(uvs, faces, *, padding=2.0, resolution=1024):
     if faces is not None:
         area = sum(_poly_area(u, f) for u, f in zip(packed, faces))
     return PackResult(uvs=packed, scale=s_all, offsets=boxes[:, 0].copy(), utilisation=area, padding_texels=float(padding))
+
+
+def island_density(uv, V, F):
+    """Texel-density factor of one island: ``sqrt(UV area / 3D area)`` (UV units per unit length).
+
+    Parameters
+    ----------
+    uv : (n,2) float array
+    V : (n,3) float array, the island's 3D vertices (same order as ``uv``)
+    F : (m,3) int array
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
+    >>> round(island_density(2 * V[:, :2], V, F), 12)
+    2.0
+    """
+    V = np.asarray(V, float)
+    a3 = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum()
+    a2 = _poly_area(np.asarray(uv, float), F)
+    return float(np.sqrt(a2 / a3)) if a3 > 0 and a2 > 0 else float("nan")
+
+
+def _xatlas_place(start, allf, tpu, pad, resolution, brute_force):
+    import xatlas
+
+    at = xatlas.Atlas()
+    at.add_uv_mesh(start, allf)
+    po = xatlas.PackOptions()
+    po.padding = int(pad)
+    po.resolution = int(resolution)
+    po.bilinear = False
+    po.rotate_charts = False  # xatlas "rotates" by transposing: a mirror image
+    po.rotate_charts_to_axis = False
+    po.bruteForce = bool(brute_force)
+    po.texels_per_unit = float(tpu)
+    at.generate(xatlas.ChartOptions(), po)
+    return at
+
+
+def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", tolerance=0.005, texel_density=None,
+               supersample=1):
+    """Pack charts by their shapes at the largest common scale that fits the texture, with exact padding.
+
+    xatlas's packer places each chart's rasterised shape (not its bounding box);
+    we search the texel density (texels per UV unit, the same for every chart) by
+    bisection for the largest one that still fits one ``resolution``² page, then read
+    back only where xatlas put each chart and apply that translation to the float64
+    UVs at the common scale. The gaps are then measured exactly
+    (:func:`~neuraluv.atlas.validate.validate_atlas`-style polygon distances); xatlas
+    is asked for half the padding (it dilates both neighbours) and for more when the
+    measured gap falls short.
+
+    Parameters
+    ----------
+    uvs : list of (n_i,2) float arrays
+        Charts at a common scale (e.g. density-normalised, rotated to their smallest box).
+    faces : list of (m_i,3) int arrays
+    padding : float
+        Minimum gap between charts, and to the border, in texels at ``resolution``.
+    resolution : int
+    brute_force : bool or ``"auto"``
+        xatlas's slower exhaustive placement. Neither placement is always the
+        tighter one, so ``"auto"`` packs both ways (brute force only up to 600
+        charts, where it stays within seconds) and keeps the higher utilisation.
+    tolerance : float
+        Relative precision of the density search.
+    texel_density : float, optional
+        Texels per UV unit: a fixed density instead of the search. The charts may
+        then need several pages: ``PackResult.pages`` says which page each chart is on.
+
+    Returns
+    -------
+    PackResult (with ``pages``, one int per chart; 0 for a single page)
+
+    Notes
+    -----
+    Charts are translated and uniformly scaled only: xatlas's own 90° "rotation"
+    transposes a chart (a mirror image), so it is switched off.
+
+    Examples
+    --------
+    >>> sq = np.array([[0., 0], [1, 0], [1, 1], [0, 1]]); q = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> res = tight_pack([sq, 2 * sq, sq], [q, q, q], padding=4, resolution=128)
+    >>> res.padding_texels >= 4, round(res.utilisation, 2) > 0.5
+    (True, True)
+    """
+    if brute_force == "auto":
+        kw = dict(padding=padding, resolution=resolution, tolerance=tolerance, texel_density=texel_density,
+                  supersample=supersample)
+        tries = [tight_pack(uvs, faces, brute_force=False, **kw)]
+        if len(uvs) <= 600:
+            tries.append(tight_pack(uvs, faces, brute_force=True, **kw))
+        return max(tries, key=lambda r: (-int(r.pages.max()), r.utilisation))
+    uvs = [np.asarray(u, float) for u in uvs]
+    faces = [np.asarray(f, np.int64) for f in faces]
+    off = np.cumsum([0] + [len(u) for u in uvs])
+    start = shelf_pack(uvs, None, padding=2.0, resolution=4096)
+    s0 = start.scale
+    pts = np.vstack(start.uvs).astype(np.float32)
+    allf = np.vstack([f + o for f, o in zip(faces, off[:-1])]).astype(np.uint32)
+    area = sum(_poly_area(u, f) for u, f in zip(uvs, faces))
+    pad = float(padding)
+    k = int(supersample)
+    inner = int(np.floor(resolution - 2 * pad)) * k  # the border keeps the padding too
+    for xpad in range(int(np.ceil(k * pad / 2)), int(np.ceil(k * pad)) + 3):  # xatlas dilates both neighbours
+        if texel_density is not None:
+            tex = float(texel_density)
+            big = max(float((u.max(0) - u.min(0)).max()) for u in uvs) * tex
+            if big > inner / k - 2 * xpad / k:
+                raise ValueError(f"an island spans {big:.0f} texels at this texel density, more than a "
+                                 f"{resolution}-texel tile holds: lower the density or raise the resolution")
+            at = _xatlas_place(pts, allf, k * tex / s0, xpad, inner, brute_force)
+        else:
+            hi = (resolution - 2 * pad) / np.sqrt(max(area, 1e-300))
+            lo, at_lo = hi / 64, None
+            while at_lo is None:
+                at_lo = _xatlas_place(pts, allf, k * lo / s0, xpad, inner, brute_force)
+                if at_lo.atlas_count != 1:
+                    lo, at_lo = lo / 4, None
+            at = at_lo
+            while hi / lo > 1 + tolerance:
+                mid = np.sqrt(lo * hi)
+                trial = _xatlas_place(pts, allf, k * mid / s0, xpad, inner, brute_force)
+                if trial.atlas_count == 1:
+                    lo, at = mid, trial
+                else:
+                    hi = mid
+            tex = lo
+        packed, pages = _read_placement(at, uvs, off, tex, pad, resolution, k)
+        gap = _min_gap(packed, faces, pages)
+        if gap * resolution >= pad * (1 - 1e-6):
+            util = sum(_poly_area(u, f) for u, f in zip(packed, faces)) / max(1, int(pages.max()) + 1)
+            return PackResult(uvs=packed, scale=tex / resolution, offsets=np.array([u.min(0) for u in packed]),
+                              utilisation=util, padding_texels=float(gap * resolution) if np.isfinite(gap) else float("inf"),
+                              pages=pages)
+    raise ValueError("tight_pack could not reach the padding; use the shelf packer")
+
+
+def _read_placement(at, uvs, off, tex, pad, resolution, k=1):
+    """Place each chart (at ``tex`` texels per unit) where xatlas put it; returns (uvs, pages).
+
+    The chart's rotation is the least-squares fit (Procrustes) of xatlas's output to
+    the input; a reflection there would mean a mirrored island, which is refused.
+    """
+    vmap, _, out = at[0]
+    vmap = np.asarray(vmap, np.int64)
+    page, _ = at.get_mesh_vertex_assignment(0)
+    page = np.asarray(page, np.int64)
+    q = np.asarray(out, float) * [at.width, at.height] / k  # texels at the target resolution
+    owner = np.repeat(np.arange(len(uvs)), np.diff(off))[vmap]
+    order = np.argsort(owner, kind="stable")
+    bounds = np.searchsorted(owner[order], np.arange(len(uvs) + 1))
+    packed, pages = [], np.zeros(len(uvs), np.int64)
+    for i, u in enumerate(uvs):
+        sel = order[bounds[i]:bounds[i + 1]]
+        P = u[vmap[sel] - off[i]]
+        Q = q[sel]
+        pc, qc = P - P.mean(0), Q - Q.mean(0)
+        U, _, Vt = np.linalg.svd(pc.T @ qc)
+        R = U @ Vt
+        if np.linalg.det(R) < 0:
+            raise ValueError("xatlas mirrored a chart")
+        packed.append(((u - P.mean(0)) @ R * tex + Q.mean(0) + pad) / resolution)
+        pages[i] = np.bincount(page[sel]).argmax()
+    return packed, pages
+
+
+def _min_gap(uvs, faces, pages):
+    """Smallest distance between two charts on the same page, and from a chart to the page border."""
+    import shapely
+
+    polys = [shapely.union_all(shapely.polygons(u[f])) for u, f in zip(uvs, faces)]
+    gap = float("inf")
+    for u in uvs:
+        gap = min(gap, float(u.min()), float(1 - u.max()))
+    for p in np.unique(pages):
+        idx = np.flatnonzero(pages == p)
+        if len(idx) < 2:
+            continue
+        P = np.array([polys[i] for i in idx], dtype=object)
+        tree = shapely.STRtree(P)
+        a, b = tree.query(P, predicate="dwithin", distance=0.05)
+        for i, j in zip(a, b):
+            if i < j:
+                gap = min(gap, P[i].distance(P[j]))
+    return gap
+
+
+def upright(uv, V=None):
+    """Rotate a chart (no mirroring) so its main axis runs along U.
+
+    The main axis is the principal direction of the chart's UV points; of the two
+    ways to lay it along U, the one that puts the 3D +Y direction (or, failing that,
+    +Z) towards +V is taken when ``V`` is given, so islands of a standing model
+    keep their "up".
+
+    Parameters
+    ----------
+    uv : (n,2) float array
+    V : (n,3) float array, optional
+        The chart's 3D vertices (same order as ``uv``).
+
+    Returns
+    -------
+    uv : (n,2) float array, rotated about the origin (det +1).
+
+    Examples
+    --------
+    >>> r = upright(np.array([[0., 0], [0, 3], [1, 0]]))
+    >>> ext = r.max(0) - r.min(0); bool(ext[0] > ext[1])
+    True
+    """
+    uv = np.asarray(uv, float)
+    if len(uv) < 2:
+        return uv.copy()
+    c = uv - uv.mean(0)
+    w, vec = np.linalg.eigh(c.T @ c)
+    a = vec[:, -1]
+    R = np.array([[a[0], -a[1]], [a[1], a[0]]])  # columns: main axis, its left normal (det +1)
+    out = uv @ R
+    if V is not None:
+        V = np.asarray(V, float)
+        for axis in (1, 2):
+            up = V[:, axis] - V[:, axis].mean()
+            corr = float(up @ (out[:, 1] - out[:, 1].mean()))
+            if abs(corr) > 1e-9 * (np.abs(up).sum() + 1e-300):
+                if corr < 0:
+                    out = -out  # a half turn, still no mirror
+                break
+    return out

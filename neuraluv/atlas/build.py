@@ -11,19 +11,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from neuraluv import __version__
-from neuraluv.atlas.candidates import chart_candidates
+from neuraluv.atlas.candidates import chart_candidates, merge_small_charts
 from neuraluv.atlas.prepare import prepare_mesh
 from neuraluv.atlas.routing import ROUTES, route_charts
 from neuraluv.atlas.validate import validate_atlas
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.packing import rotate_to_min_box, shelf_pack, xatlas_pack
+from neuraluv.packing import PACKERS, island_density, rotate_to_min_box, shelf_pack, tight_pack, upright, xatlas_pack
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device, torch_threads
 from neuraluv.topology import topology_scan
 
-__all__ = ["AtlasResult", "build_atlas", "repack"]
+__all__ = ["AtlasResult", "PACKERS", "build_atlas", "repack"]
 
 
 @dataclass
@@ -109,8 +109,9 @@ class AtlasResult:
         })
 
 
-def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="shelf", seed=0, device="auto",
-                max_cost=4.0, time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
+def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="tight", seed=0, device="auto",
+                max_cost=4.0, merge=True, merge_faces=8, merge_curvature=0.2, texel_density=None, orient="compact",
+                time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
     """Build a validated UV atlas of a whole (possibly messy) mesh.
 
     Parameters
@@ -123,11 +124,25 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
         Target texture resolution the padding refers to.
     padding : float
         Minimum gap between islands (and to the border) in texels.
-    packer : ``"shelf"`` (the paper's area-scaled shelf packer) or ``"xatlas"``.
+    packer : ``"tight"`` (default: charts' shapes placed by xatlas at the largest common
+        density that fits, :func:`~neuraluv.packing.tight_pack`), ``"shelf"`` (the paper's
+        area-scaled shelf packer of bounding boxes) or ``"xatlas"`` (xatlas's packer on the
+        charts' bounding boxes).
     seed : int
     device : str
     max_cost : float
         xatlas charting cost for seams.
+    merge : bool
+        Merge small candidates into neighbours before solving
+        (:func:`~neuraluv.atlas.candidates.merge_small_charts`).
+    merge_faces, merge_curvature : int, float
+        Its size limit and curvature budget (radians).
+    texel_density : float, optional
+        Texels per unit length of the input mesh, instead of the largest density that
+        fits one ``resolution``² texture (``"tight"`` only). Islands that do not fit
+        one texture go to further UDIM tiles (tile ``k`` at ``u + k % 10, v + k // 10``).
+    orient : ``"compact"`` (each island turned to its smallest bounding box, lying wide)
+        or ``"upright"`` (each island's main axis along U).
     min_height : float
         Sliver threshold of :func:`prepare_mesh` (relative to the diagonal).
     time_budget : float, optional
@@ -166,15 +181,19 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
     cfg = get_config(preset, **overrides)
     t_rep = time.perf_counter()
     cands = chart_candidates(Vr, Fr, max_cost=max_cost)
+    n_cand = len(cands)
+    if merge:
+        cands = merge_small_charts(Vr, Fr, cands, max_faces=merge_faces, max_curvature=merge_curvature)
     t_cand = time.perf_counter()
     deadline = None if time_budget is None else t0 + float(time_budget)
     with torch_threads(threads):
         charts = route_charts(Vr, Fr, cands, cfg, seed=seed, device=device, deadline=deadline, progress=progress)
     t_route = time.perf_counter()
     Vout = Vin[vmap]
-    UV, FUV, face_chart, face_route, packed = _pack(charts, len(Fr), packer, padding, resolution)
+    UV, FUV, face_chart, face_route, packed = _pack(charts, Vout, len(Fr), packer, padding, resolution,
+                                                    texel_density=texel_density, orient=orient)
     t_pack = time.perf_counter()
-    validation = validate_atlas(Vout, Fr, UV, FUV, padding=padding, resolution=resolution)
+    validation = validate_atlas(Vout, Fr, UV, FUV, padding=padding, resolution=resolution, tiles=packed.pages is not None)
     info = {
         "input_vertices": int(len(Vin)), "input_faces": int(len(F)),
         "repaired_vertices": int(len(Vr)), "repaired_faces": int(len(Fr)),
@@ -182,8 +201,9 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
         "preset": preset if isinstance(preset, str) else "custom",
         "solver": {"iterations": cfg.iterations, "retries": cfg.retries, "optimizer": cfg.optimizer, "width": cfg.width},
         "max_cost": max_cost, "time_budget": time_budget,
-        "packer": packer, "resolution": resolution, "padding": padding,
-        "utilisation": packed.utilisation, "pack_scale": packed.scale,
+        "candidates": {"xatlas_and_splits": n_cand, "after_merge": len(cands), "merge": bool(merge),
+                       "merge_faces": merge_faces, "merge_curvature": merge_curvature},
+        **_pack_info(packed, packer, padding, resolution, texel_density, orient),
         "timings": {"repair": t_rep - t0, "candidates": t_cand - t_rep, "routing": t_route - t_cand,
                     "packing": t_pack - t_route, "validation": time.perf_counter() - t_pack},
         "time": time.perf_counter() - t0, "device": str(resolve_device(device)), "seed": seed,
@@ -192,26 +212,54 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="sh
                        validation=validation, info=info)
 
 
-def _pack(charts, m, packer, padding, resolution):
-    """Pack the charts' islands and assemble per-corner UVs for ``m`` faces."""
+def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orient="compact"):
+    """Pack the charts' islands at one texel density and assemble per-corner UVs for ``m`` faces.
+
+    Every island is first scaled so its UV area equals its 3D area (one texel density
+    everywhere: the checkerboard has one cell size), then turned (``orient``) and packed.
+    """
     islands = [isl for c in charts for isl in c.islands]
-    uvs = [rotate_to_min_box(isl[3]) for isl in islands]
+    V, _, unit = normalize_unit_box(V)  # densities in unit-box lengths: no overflow for huge inputs
+    uvs = []
+    for fidx, vi, Fl, uv in islands:
+        d = island_density(uv, V[vi], Fl)
+        u = uv / d if np.isfinite(d) and d > 0 else uv
+        uvs.append(upright(u, V[vi]) if orient == "upright" else rotate_to_min_box(u))
     fl = [isl[2] for isl in islands]
-    if packer == "shelf":
+    if orient not in ("compact", "upright"):
+        raise NeuralUVError(f"unknown orientation {orient!r}: use 'compact' or 'upright'")
+    if texel_density is not None and packer != "tight":
+        raise NeuralUVError("--texel-density needs the 'tight' packer")
+    if packer == "tight":
+        try:
+            packed = tight_pack(uvs, fl, padding=padding, resolution=resolution,
+                                texel_density=None if texel_density is None else texel_density * unit)
+        except ValueError as exc:
+            if texel_density is not None:
+                raise NeuralUVError(str(exc)) from None
+            packed = shelf_pack(uvs, fl, padding=padding, resolution=resolution)  # the shelf packer always fits
+    elif packer == "shelf":
         packed = shelf_pack(uvs, fl, padding=padding, resolution=resolution)
     elif packer == "xatlas":
         packed = xatlas_pack(uvs, fl, padding=padding, resolution=resolution)
     else:
-        raise NeuralUVError(f"unknown packer {packer!r}: use 'shelf' or 'xatlas'")
+        raise NeuralUVError(f"unknown packer {packer!r}: use one of {', '.join(PACKERS)}")
+    pages = packed.pages
+    multi = pages is not None and int(pages.max()) > 0
+    if not multi:
+        packed.pages = None
     FUV = -np.ones((m, 3), np.int64)
     UVs, off = [], 0
-    for isl, uv in zip(islands, packed.uvs):
+    for k, (isl, uv) in enumerate(zip(islands, packed.uvs)):
         FUV[isl[0]] = isl[2] + off
+        uv = np.clip(uv, 0.0, 1.0)
+        if multi:  # UDIM tile k: u + k % 10, v + k // 10
+            uv = uv + [pages[k] % 10, pages[k] // 10]
         UVs.append(uv)
         off += len(uv)
     # float32-representable values, so OBJ and GLB (float32 TEXCOORD_0) carry the
     # same layout and the in-memory validation speaks for both files
-    UV = np.clip(np.vstack(UVs), 0.0, 1.0).astype(np.float32).astype(np.float64)
+    UV = np.vstack(UVs).astype(np.float32).astype(np.float64)
     face_chart = np.zeros(m, np.int64)
     face_route = np.zeros(m, np.int8)
     for i, c in enumerate(charts):
@@ -220,13 +268,20 @@ def _pack(charts, m, packer, padding, resolution):
     return UV, FUV, face_chart, face_route, packed
 
 
+def _pack_info(packed, packer, padding, resolution, texel_density, orient):
+    pages = 1 if packed.pages is None else int(packed.pages.max()) + 1
+    return {"packer": packer, "resolution": resolution, "padding": padding, "orient": orient,
+            "texel_density": texel_density, "pages": pages, "utilisation": packed.utilisation,
+            "pack_scale": packed.scale}
+
+
 def repack(res, packer="shelf", *, padding=None, resolution=None):
     """Re-pack an atlas's charts with another packer or padding, without re-solving.
 
     Parameters
     ----------
     res : AtlasResult
-    packer : ``"shelf"`` or ``"xatlas"``
+    packer : one of :data:`PACKERS`
     padding, resolution : optional, default the atlas's own.
 
     Returns
@@ -244,8 +299,9 @@ def repack(res, packer="shelf", *, padding=None, resolution=None):
 
     padding = res.info["padding"] if padding is None else padding
     resolution = res.info["resolution"] if resolution is None else resolution
-    UV, FUV, fc, fr, packed = _pack(res.charts, len(res.F), packer, padding, resolution)
-    info = dict(res.info, packer=packer, padding=padding, resolution=resolution,
-                utilisation=packed.utilisation, pack_scale=packed.scale)
+    orient = res.info.get("orient", "compact")
+    UV, FUV, fc, fr, packed = _pack(res.charts, res.V, len(res.F), packer, padding, resolution, orient=orient)
+    info = dict(res.info, **_pack_info(packed, packer, padding, resolution, None, orient))
     return replace(res, UV=UV, FUV=FUV, face_chart=fc, face_route=fr, info=info,
-                   validation=validate_atlas(res.V, res.F, UV, FUV, padding=padding, resolution=resolution))
+                   validation=validate_atlas(res.V, res.F, UV, FUV, padding=padding, resolution=resolution,
+                                             tiles=packed.pages is not None))

@@ -6,7 +6,7 @@ import numpy as np
 from neuraluv.meshfix import normalize_unit_box
 from neuraluv.topology import components, face_components, is_disk_like, submesh
 
-__all__ = ["seam_charts", "bisect_faces", "split_into_disks", "chart_candidates"]
+__all__ = ["seam_charts", "bisect_faces", "split_into_disks", "chart_candidates", "merge_small_charts"]
 
 
 def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
@@ -180,3 +180,147 @@ def chart_candidates(V, F, *, max_cost=4.0):
         for ch in pieces:
             _make_disks(V, F, fi[ch], f"xatlas seams ({why})", out)
     return out
+
+
+def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
+    """Merge small chart candidates into neighbours when the union stays a nearly flat disk.
+
+    xatlas leaves many tiny charts along creases (single faces, short strips), and
+    every one of them becomes an island thinner than the padding. A small chart is
+    merged into the neighbour it shares a seam with when
+
+    * the union is still disk-like (:func:`~neuraluv.topology.is_disk_like`),
+    * the seam vertices that become interior carry little Gaussian curvature:
+      ``Σ |2π − Σθ_v| ≤ max_curvature`` (radians) over those vertices, and
+    * a quick conformal flattening of the union (libigl LSCM) has no flipped face
+      and a boundary that does not cross itself — a flap merged at zero curvature
+      can still wrap round and overlap its chart, which the neural map would then
+      inherit (the chart would be split again, or become a fallback).
+
+    A flap hinged on one edge adds no interior vertex, so it merges at zero cost:
+    its dihedral angle is extrinsic and the flattening stays an isometry there.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    candidates : list of (fidx, source)
+        Disk-like charts covering every face once (:func:`chart_candidates`).
+    max_faces : int
+        Charts with at most this many faces are merged (the larger chart of a
+        pair may be any size).
+    max_curvature : float
+        Largest total |angle defect| (radians) a merge may turn into interior curvature.
+
+    Returns
+    -------
+    list of (fidx, source) pairs, still covering every face exactly once; a merged
+    chart's source says ``"+ N merged"``.
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> V, F = disk(n_rings=4)
+    >>> parts = [(np.arange(len(F) - 1), "a"), (np.array([len(F) - 1]), "b")]
+    >>> [(len(f), s) for f, s in merge_small_charts(V, F, parts)]
+    [(96, 'a + 1 merged')]
+    """
+    import igl
+
+    F = np.asarray(F, np.int64)
+    m = len(F)
+    label = np.full(m, -1, np.int64)
+    faces = {}
+    src = {}
+    for k, (f, s) in enumerate(candidates):
+        f = np.asarray(f, np.int64)
+        label[f] = k
+        faces[k] = f
+        src[k] = [s, 0]
+    # Gaussian curvature (angle defect) of interior mesh vertices; boundary vertices never become interior
+    theta = np.asarray(igl.internal_angles(np.asarray(V, float), F))
+    defect = 2 * np.pi - np.bincount(F.ravel(), theta.ravel(), minlength=len(V))
+    bnd = np.zeros(len(V), bool)
+    e = np.sort(np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    _, inv, cnt = np.unique(e, axis=0, return_inverse=True, return_counts=True)
+    bnd[e[cnt[inv.ravel()] == 1].ravel()] = True
+    defect[bnd] = 0.0
+    ef = np.tile(np.arange(m), 3)
+    order = np.argsort(inv.ravel(), kind="stable")
+    inv_s = inv.ravel()[order]
+    starts = np.flatnonzero(np.r_[True, inv_s[1:] != inv_s[:-1]])
+    pairs = [(ef[order[s]], ef[order[s + 1]]) for s in starts if s + 1 < len(order) and inv_s[s + 1] == inv_s[s]
+             and (s + 2 >= len(order) or inv_s[s + 2] != inv_s[s])]
+    nbr_faces = {}
+    for a, b in pairs:
+        nbr_faces.setdefault(a, []).append(b)
+        nbr_faces.setdefault(b, []).append(a)
+    vf = {}
+    for f in range(m):
+        for v in F[f]:
+            vf.setdefault(int(v), []).append(f)
+
+    def neighbours(k):
+        out = {}
+        for f in faces[k]:
+            for g in nbr_faces.get(int(f), ()):
+                lg = label[g]
+                if lg != k:
+                    out[lg] = out.get(lg, 0) + 1
+        return out
+
+    def cost(k, j):
+        verts = np.unique(F[faces[k]])
+        new_interior = [v for v in verts if not bnd[v] and all(label[g] in (k, j) for g in vf[int(v)])
+                        and any(label[g] == j for g in vf[int(v)])]
+        return float(np.abs(defect[new_interior]).sum()) if new_interior else 0.0
+
+    changed = True
+    while changed:
+        changed = False
+        for k in sorted(faces, key=lambda c: len(faces[c])):
+            if k not in faces or len(faces[k]) > max_faces:
+                continue
+            options = []
+            for j, shared in neighbours(k).items():
+                c = cost(k, j)
+                if c <= max_curvature:
+                    options.append((c, -shared, j))
+            for c, _, j in sorted(options):
+                union = np.concatenate([faces[j], faces[k]])
+                vi, Fc = submesh(F, union)
+                if not is_disk_like(V[vi], Fc)[0] or not _flattens(V[vi], Fc):
+                    continue
+                big, small = (j, k) if len(faces[j]) >= len(faces[k]) else (k, j)
+                faces[big] = union
+                label[faces[small]] = big
+                src[big][1] += 1 + src[small][1]
+                del faces[small]
+                changed = True
+                break
+    out = []
+    for k in sorted(faces):
+        s, n = src[k]
+        out.append((np.sort(faces[k]), f"{s} + {n} merged" if n else s))
+    return out
+
+
+def _flattens(V, F):
+    """True when LSCM (two boundary pins) maps the disk ``(V, F)`` without flips or a self-crossing boundary."""
+    import igl
+
+    from neuraluv.atlas.routing import boundary_is_simple
+    from neuraluv.metrics import distortion_metrics
+    from neuraluv.topology import boundary_loop
+
+    bnd = boundary_loop(F)
+    if len(bnd) < 3:
+        return False
+    b = np.array([bnd[0], bnd[len(bnd) // 2]], np.int64)
+    try:
+        uv = np.asarray(igl.lscm(np.asarray(V, float), F, b, np.array([[0.0, 0.0], [1.0, 0.0]]))[0])
+    except Exception:  # noqa: BLE001 - a failed solve means "do not merge"
+        return False
+    if uv.shape != (len(V), 2) or not np.isfinite(uv).all():
+        return False
+    return distortion_metrics(V, F, uv)["flips"] == 0 and boundary_is_simple(uv, F)

@@ -25,7 +25,7 @@ def uv_islands(FUV):
     return faces_sharing(FUV.reshape(-1), np.repeat(np.arange(len(FUV)), 3), len(FUV))
 
 
-def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_padding=True):
+def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_padding=True, tiles=False):
     """Check a packed atlas exactly: flips, overlaps, bounds, padding.
 
     Parameters
@@ -38,6 +38,9 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
         Required gap between islands in texels at ``resolution``.
     resolution : int, optional
     check_padding : bool
+    tiles : bool
+        UDIM layout: every face must lie inside one unit tile ``[i, i+1] × [j, j+1]``
+        (``i, j ≥ 0``) instead of inside ``[0,1]²``.
 
     Returns
     -------
@@ -47,7 +50,9 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
         ``islands``, ``overlapping_pairs`` (island pairs whose polygons share
         area), ``overlap_area``, ``self_overlapping_islands``, ``padding_violations``
         (pairs closer than ``padding/resolution``), ``min_gap_texels``,
-        ``uv_in_unit_square``, ``covered_faces`` and ``valid``.
+        ``uv_in_unit_square``, ``covered_faces``, ``valid`` and ``density_spread``
+        (``max/min − 1`` over islands of ``sqrt(UV area / 3D area)``: 0 when every
+        island has the same texel density; not part of ``valid``).
 
     Notes
     -----
@@ -76,6 +81,10 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     non_finite = int((has_uv & ~ok_face).sum())
     used = UV[np.unique(FUV[ok_face])] if ok_face.any() else UV[:0]
     in_box = bool(non_finite == 0 and len(used) and used.min() >= 0.0 and used.max() <= 1.0)
+    if tiles and non_finite == 0 and len(used) and used.min() >= 0.0:
+        corners = UV[FUV[ok_face]]
+        tile = np.floor(corners.mean(1))[:, None, :]
+        in_box = bool(((corners >= tile) & (corners <= tile + 1)).all())
     if covered < m or non_finite:  # faces without (finite) UVs count as flipped: det J is undefined
         met = distortion_metrics(V, F[ok_face], UV, FUV[ok_face]) if ok_face.any() else {"flips": 0, "min_det": None}
         flips = int(met["flips"]) + (m - int(ok_face.sum()))
@@ -88,8 +97,14 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     polys, self_ov = [], 0
     order = np.argsort(lab, kind="stable")
     bounds = np.searchsorted(lab[order], np.arange(n + 1))
+    Fok = F[ok_face]
+    a3 = 0.5 * np.linalg.norm(np.cross(V[Fok[:, 1]] - V[Fok[:, 0]], V[Fok[:, 2]] - V[Fok[:, 0]]), axis=1)
+    density = np.full(n, np.nan)
     for i in range(n):
         fi = order[bounds[i]:bounds[i + 1]]
+        A3 = a3[fi].sum()
+        if A3 > 0:
+            density[i] = np.sqrt(np.abs(signed_areas_2d(UV, FUV[fi])).sum() / A3)
         P, total = triangles_union(UV, FUV[fi])
         if total > 0 and (total - P.area) / total > 1e-7:
             self_ov += 1
@@ -125,7 +140,14 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
         "islands": int(n), "overlapping_pairs": ov_pairs, "overlap_area": ov_area,
         "self_overlapping_islands": self_ov, "padding_violations": pad_viol, "padding_texels": padding,
         "resolution": resolution, "min_gap_texels": gap_tex, "uv_in_unit_square": in_box, "valid": bool(valid),
+        "density_spread": _spread(density),
     }
+
+
+def _spread(density):
+    """Texel-density spread across islands: ``max / min − 1`` of ``sqrt(UV area / 3D area)`` (0 = one density)."""
+    d = density[np.isfinite(density) & (density > 0)]
+    return float(d.max() / d.min() - 1.0) if len(d) else None
 
 
 def self_overlap(UV, F, rtol=1e-7):

@@ -16,6 +16,7 @@ from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_opti
                                   positive_int, time_budget_option)
 from neuraluv.cli.paths import check_paths
 from neuraluv.errors import NeuralUVError
+from neuraluv.packing import PACKERS
 
 __all__ = ["register"]
 
@@ -38,6 +39,19 @@ def cmd_check(args):
     return 0
 
 
+def _packing_options(a):
+    a.add_argument("--packer", default="tight", choices=list(PACKERS),
+                   help="tight (default: chart shapes at the largest common density that fits), shelf (the paper's "
+                        "bounding-box shelves) or xatlas (xatlas's packer on bounding boxes)")
+    a.add_argument("--texel-density", type=positive_float, default=None,
+                   help="texels per unit length of the input mesh instead of the largest density that fits "
+                        "one texture; islands that do not fit go to further UDIM tiles (u+1, u+2, ...)")
+    a.add_argument("--orient", default="compact", choices=["compact", "upright"],
+                   help="compact (default: each island turned to its smallest box) or upright (its main axis along U)")
+    a.add_argument("--no-merge", action="store_true",
+                   help="keep xatlas's small charts instead of merging them into neighbours (more, smaller islands)")
+
+
 def cmd_atlas(args):
     from neuraluv.atlas.export import atlas_file
     from neuraluv.solver.device import resolve_device
@@ -50,7 +64,8 @@ def cmd_atlas(args):
     resolve_device(args.device)
     res, rep = atlas_file(args.input, out, report=args.report, renders=args.renders, preset=args.preset,
                           resolution=args.resolution, padding=args.padding, packer=args.packer, seed=args.seed,
-                          device=args.device, **_overrides(args),
+                          device=args.device, **_overrides(args), texel_density=args.texel_density,
+                          orient=args.orient, merge=not args.no_merge,
                           time_budget=args.time_budget or None, threads=args.threads, progress=not args.quiet,
                           min_height=args.min_height)
     t = res.totals()
@@ -65,7 +80,9 @@ def cmd_atlas(args):
           f"{t['fallback_charts']} fallback), {t['islands']} islands; faces neural {_pct(t['neural_share'])} / "
           f"exact {_pct(t['exact_share'])} / fallback {_pct(t['fallback_share'])}; "
           f"coverage {_pct(b['covered_faces'] / max(b['faces'], 1))}, flips {b['flips']}, overlaps {b['overlapping_pairs']}, "
-          f"padding violations {b['padding_violations']}; utilisation {_pct(t['utilisation'])}; {res.info['time']:.1f}s"
+          f"padding violations {b['padding_violations']}; utilisation {_pct(t['utilisation'])}"
+          + (f" over {res.info['pages']} UDIM tiles" if res.info.get("pages", 1) > 1 else "")
+          + f", texel-density spread {_pct(b['density_spread'] or 0.0)}; {res.info['time']:.1f}s"
           + (f"; input repaired: {', '.join(fixed)}" if fixed else ""))
     if not rep["ok"]:
         print("neuraluv: atlas failed validation after reading it back (see the report)", file=sys.stderr)
@@ -203,7 +220,7 @@ def register(sub):
     a.add_argument("--report", help="JSON report")
     a.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     a.add_argument("--padding", type=nonneg_float, default=4.0, help="gap between islands in texels (default 4)")
-    a.add_argument("--packer", default="shelf", choices=["shelf", "xatlas"], help="shelf (paper) or xatlas")
+    _packing_options(a)
     a.add_argument("--renders", help="folder for checkerboard and route-coloured PNGs")
     time_budget_option(a, 600)
     a.add_argument("--min-height", type=nonneg_float, default=1e-6, help="faces thinner than this fraction of the diagonal are removed as slivers (default 1e-6)")
@@ -243,6 +260,6 @@ def register(sub):
     s.add_argument("--limit", type=positive_int, default=None, help="only the first N assets")
     s.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     s.add_argument("--padding", type=nonneg_float, default=4.0, help="gap between islands in texels (default 4)")
-    s.add_argument("--packer", default="shelf", choices=["shelf", "xatlas"], help="shelf (paper, default) or xatlas")
+    s.add_argument("--packer", default="tight", choices=list(PACKERS), help="tight (default), shelf (paper) or xatlas")
     _atlas_options(s)
     s.set_defaults(func=cmd_sweep)

@@ -30,6 +30,7 @@ BENCHMARKS = {
     "charts": "Table 6: xatlas-cut charts of closed meshes, stratified by face count",
     "pareto": "Table 7: iteration budget vs median E_SD and time",
     "speed": "solver speed: network floor, cost split, presets vs libigl SLIM (and --pareto: the fast preset's study)",
+    "atlas-quality": "atlas packing, chart count, seams and texel density beside xatlas on the same meshes",
     "repair": "UV repair with minimal change: generated damage and broken layouts, against mouette's untangler",
 }
 
