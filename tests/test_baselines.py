@@ -18,7 +18,7 @@ LIBIGL = ["harmonic", "lscm", "arap", "slim-20"]
 
 def test_method_names_and_unknown_method():
     assert {"harmonic", "lscm", "arap", "slim-20", "slim-1k", "bff", "xatlas", "blender-smart", "blender-angle",
-            "blender-conformal", "blender-minstretch", "optcuts", "neural"} == set(METHODS)
+            "blender-conformal", "blender-minstretch", "optcuts", "bff-cli", "neural"} == set(METHODS)
     with pytest.raises(ValueError, match="unknown method"):
         run_baseline("nope", *datasets.disk(3))
 
@@ -129,6 +129,7 @@ def test_optcuts_adapter_with_a_stand_in_binary(monkeypatch, tmp_path):
     assert r.metrics["flips"] == 0 and r.metrics["n_faces"] == len(F)
     np.testing.assert_allclose(r.metrics["esd"], distortion_metrics(V, F, V[:, :2])["esd"])  # the stand-in's map
     assert run_baseline("optcuts", *datasets.several_components(3)).status == "init fail"
+    assert run_baseline("optcuts", *datasets.several_components(3), single_component=False).status == "ok"
 
 
 def test_blender_unavailable(monkeypatch, tmp_path):
