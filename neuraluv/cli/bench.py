@@ -31,6 +31,7 @@ BENCHMARKS = {
     "pareto": "Table 7: iteration budget vs median E_SD and time",
     "speed": "solver speed: network floor, cost split, presets vs libigl SLIM (and --pareto: the fast preset's study)",
     "repair": "UV repair with minimal change: generated damage and broken layouts, against mouette's untangler",
+    "baselines": "external baselines (make baselines): our BFF vs the BFF v1.6 binary; OptCuts on 1K-40K xatlas charts",
 }
 
 
