@@ -53,9 +53,11 @@ def fmt_num(x, digits=2):
     --------
     >>> fmt_num(4.1372), fmt_num(1.47e9), fmt_num(30909.1), fmt_num(float("nan")), fmt_num(None)
     ('4.14', '1.47×10^9', '30909.10', '—', '—')
-    >>> fmt_num(float("inf")), fmt_num(-11.784)
-    ('∞', '-11.78')
+    >>> fmt_num(float("inf")), fmt_num(-11.784), fmt_num("inf")   # "inf": a non-finite number read back from JSON
+    ('∞', '-11.78', '∞')
     """
+    if isinstance(x, str) and x in ("inf", "-inf", "nan"):
+        x = float(x)
     if x is None or isinstance(x, str):
         return "—" if x is None else x
     x = float(x)
