@@ -85,3 +85,15 @@ def test_optcuts_binary_on_a_tiny_cap():
     b = np.linalg.norm(np.cross(r.V[r.F[:, 1]] - r.V[r.F[:, 0]], r.V[r.F[:, 2]] - r.V[r.F[:, 0]]), axis=1).sum()
     assert abs(a - b) < 1e-6 * a
     assert os.path.basename(optcuts_binary()).startswith("OptCuts")
+
+
+@pytest.mark.skipif(bff_binary() is None, reason=NO_BFF)
+def test_bff_agreement_report(tmp_path):
+    from neuraluv.bench.baselines import bff_agreement
+
+    res = bff_agreement(["disk"], output=tmp_path, repeats=1, show_progress=False)
+    assert [r["variant"] for r in res.rows][0] == "ours (Python BFF)" and len(res.rows) == 3
+    assert all(r["status"] == "ok" and r["flips"] == 0 for r in res.rows)
+    assert all(abs(r["esd_rel_diff"]) < 0.01 and r["rms_distance"] < 1e-3 for r in res.rows[1:])
+    md = (tmp_path / "bff_agreement.md").read_text()
+    assert "Produced by" in md and "Machine:" in md and (tmp_path / "bff_agreement.csv").exists()
