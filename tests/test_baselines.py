@@ -136,10 +136,10 @@ def test_blender_unavailable(monkeypatch, tmp_path):
     monkeypatch.setenv("NEURALUV_BPY_PYTHON", str(tmp_path / "no-python"))
     assert blender_python() is None
     r = run_baseline("blender-smart", *datasets.disk(3))
-    assert r.status == "unavailable" and "bpy" in r.reason
+    assert r.status == "unavailable" and "bpy" in r.reason and "make blender-env" in r.reason
 
 
-@pytest.mark.skipif(blender_python() is None, reason="Blender's bpy not installed (set NEURALUV_BPY_PYTHON to a Python with `pip install 'bpy==4.5.*'`)")
+@pytest.mark.skipif(blender_python() is None, reason="Blender's bpy not installed (`make blender-env`, or set NEURALUV_BPY_PYTHON to a Python with `pip install 'bpy==4.5.*'`)")
 def test_blender_unwraps_from_loop_uvs():
     V, F = datasets.spherical_cap(n_rings=5)
     r = run_baseline("blender-conformal", V, F)

@@ -91,14 +91,18 @@ def blender_python():
     """The Python interpreter that can ``import bpy``, or None.
 
     ``$NEURALUV_BPY_PYTHON`` when set, else the current interpreter when it has
-    ``bpy`` installed.
+    ``bpy`` installed, else the ``.venv-bpy`` that ``make blender-env`` creates
+    in the repository holding this package.
     """
     env = os.environ.get("NEURALUV_BPY_PYTHON")
     if env:
         return env if Path(env).exists() else None
     import importlib.util
 
-    return sys.executable if importlib.util.find_spec("bpy") is not None else None
+    if importlib.util.find_spec("bpy") is not None:
+        return sys.executable
+    venv = Path(__file__).resolve().parents[2] / ".venv-bpy" / "bin" / "python"
+    return str(venv) if venv.exists() else None
 
 
 def blender_map(V, F, mode="SMART", *, timeout=600, **params):
@@ -131,8 +135,9 @@ def blender_map(V, F, mode="SMART", *, timeout=600, **params):
 
     py = blender_python()
     if py is None:
-        raise Unavailable("Blender's bpy module not found: `python -m venv /tmp/bpyvenv && /tmp/bpyvenv/bin/pip install "
-                          "'bpy==4.5.*' numpy`, then set NEURALUV_BPY_PYTHON=/tmp/bpyvenv/bin/python")
+        raise Unavailable("Blender's bpy module not found: run `make blender-env` in the repository (bpy 4.5 in "
+                          ".venv-bpy, found automatically), or set NEURALUV_BPY_PYTHON to a Python that has "
+                          "`pip install 'bpy==4.5.*' numpy`")
     script = Path(__file__).with_name("_blender_unwrap.py")
     with tempfile.TemporaryDirectory(prefix="neuraluv_bpy_") as tmp:
         src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
