@@ -15,7 +15,7 @@ export PYVISTA_OFF_SCREEN ?= true
 # OpenBLAS' own threads fight torch's on 2 cores (a 256x256 eigh: 1 s vs 6 ms)
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: install demo test test-fast test-notebooks book book-check data lab blender-env bench-quick acceptance atlas-acceptance clean
+.PHONY: install demo test test-fast test-notebooks book book-check data lab blender-env baselines bench-quick acceptance atlas-acceptance clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -64,6 +64,12 @@ blender-env:
 	$(PY) -m venv .venv-bpy
 	.venv-bpy/bin/pip install --quiet "bpy==4.5.*" numpy
 	@echo "export NEURALUV_BPY_PYTHON=$(CURDIR)/.venv-bpy/bin/python"
+
+# Optional external baselines: the BFF command-line tool and OptCuts, built into .cache/third_party/bin
+# from ../shared/third_party when present (else cloned from GitHub). OptCuts bundles Triangle:
+# research use only (non-commercial). Needs: build-essential cmake libsuitesparse-dev libtbb-dev libglfw3-dev.
+baselines:
+	sh data_scripts/build_baselines.sh
 
 bench-quick: install data
 	$(BIN)/neuraluv bench compact --quick -o .cache/bench-quick

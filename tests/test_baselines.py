@@ -18,7 +18,7 @@ LIBIGL = ["harmonic", "lscm", "arap", "slim-20"]
 
 def test_method_names_and_unknown_method():
     assert {"harmonic", "lscm", "arap", "slim-20", "slim-1k", "bff", "xatlas", "blender-smart", "blender-angle",
-            "blender-conformal", "blender-minstretch", "optcuts", "neural"} == set(METHODS)
+            "blender-conformal", "blender-minstretch", "optcuts", "bff-cli", "neural"} == set(METHODS)
     with pytest.raises(ValueError, match="unknown method"):
         run_baseline("nope", *datasets.disk(3))
 
@@ -129,16 +129,17 @@ def test_optcuts_adapter_with_a_stand_in_binary(monkeypatch, tmp_path):
     assert r.metrics["flips"] == 0 and r.metrics["n_faces"] == len(F)
     np.testing.assert_allclose(r.metrics["esd"], distortion_metrics(V, F, V[:, :2])["esd"])  # the stand-in's map
     assert run_baseline("optcuts", *datasets.several_components(3)).status == "init fail"
+    assert run_baseline("optcuts", *datasets.several_components(3), single_component=False).status == "ok"
 
 
 def test_blender_unavailable(monkeypatch, tmp_path):
     monkeypatch.setenv("NEURALUV_BPY_PYTHON", str(tmp_path / "no-python"))
     assert blender_python() is None
     r = run_baseline("blender-smart", *datasets.disk(3))
-    assert r.status == "unavailable" and "bpy" in r.reason
+    assert r.status == "unavailable" and "bpy" in r.reason and "make blender-env" in r.reason
 
 
-@pytest.mark.skipif(blender_python() is None, reason="Blender's bpy not installed (set NEURALUV_BPY_PYTHON to a Python with `pip install 'bpy==4.5.*'`)")
+@pytest.mark.skipif(blender_python() is None, reason="Blender's bpy not installed (`make blender-env`, or set NEURALUV_BPY_PYTHON to a Python with `pip install 'bpy==4.5.*'`)")
 def test_blender_unwraps_from_loop_uvs():
     V, F = datasets.spherical_cap(n_rings=5)
     r = run_baseline("blender-conformal", V, F)

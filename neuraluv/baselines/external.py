@@ -13,7 +13,48 @@ import numpy as np
 from neuraluv.baselines.common import InitFail, Unavailable, weld_corners
 from neuraluv.topology import topology_scan
 
-__all__ = ["xatlas_map", "BLENDER_MODES", "blender_python", "blender_map", "optcuts_binary", "optcuts_map"]
+__all__ = ["xatlas_map", "BLENDER_MODES", "blender_python", "blender_map", "optcuts_binary", "optcuts_map",
+           "bff_binary", "bff_cli_map", "built_binary", "TRIANGLE_NOTE"]
+
+#: Where ``make baselines`` (data_scripts/build_baselines.sh) puts the binaries, relative to the repository root.
+BUILT_DIR = Path(".cache") / "third_party" / "bin"
+#: The licence caveat of the OptCuts build (printed by the build script, stated in the README).
+TRIANGLE_NOTE = ("OptCuts bundles Shewchuk's Triangle, which is free for research use only "
+                 "(no commercial use without the author's permission)")
+_BUILD_HINT = "run `make baselines` in the repository (builds it into .cache/third_party/bin/)"
+
+
+def built_binary(name):
+    """``.cache/third_party/bin/NAME`` as built by ``make baselines``, or None.
+
+    Looked up under the repository that holds this package (an editable
+    install or a checkout) and under the current directory.
+    """
+    roots = [Path(__file__).resolve().parents[2], Path.cwd()]
+    for root in roots:
+        p = root / BUILT_DIR / name
+        if p.is_file() and os.access(p, os.X_OK):
+            return str(p)
+    return None
+
+
+def _tool(env_var, name):
+    env = os.environ.get(env_var)
+    if env:
+        return env if Path(env).exists() else None
+    return built_binary(name) or shutil.which(name)
+
+
+def _write_obj(path, V, F):
+    from neuraluv.io import atomic_write
+
+    with atomic_write(path) as fh:
+        fh.write("".join(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in np.asarray(V, float)))
+        fh.write("".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in np.asarray(F, np.int64)))
+
+
+def _tail(proc):
+    return ((proc.stderr or "") + (proc.stdout or "")).strip().splitlines()[-1:] or ["no output"]
 
 
 
@@ -50,14 +91,18 @@ def blender_python():
     """The Python interpreter that can ``import bpy``, or None.
 
     ``$NEURALUV_BPY_PYTHON`` when set, else the current interpreter when it has
-    ``bpy`` installed.
+    ``bpy`` installed, else the ``.venv-bpy`` that ``make blender-env`` creates
+    in the repository holding this package.
     """
     env = os.environ.get("NEURALUV_BPY_PYTHON")
     if env:
         return env if Path(env).exists() else None
     import importlib.util
 
-    return sys.executable if importlib.util.find_spec("bpy") is not None else None
+    if importlib.util.find_spec("bpy") is not None:
+        return sys.executable
+    venv = Path(__file__).resolve().parents[2] / ".venv-bpy" / "bin" / "python"
+    return str(venv) if venv.exists() else None
 
 
 def blender_map(V, F, mode="SMART", *, timeout=600, **params):
@@ -90,8 +135,9 @@ def blender_map(V, F, mode="SMART", *, timeout=600, **params):
 
     py = blender_python()
     if py is None:
-        raise Unavailable("Blender's bpy module not found: `python -m venv /tmp/bpyvenv && /tmp/bpyvenv/bin/pip install "
-                          "'bpy==4.5.*' numpy`, then set NEURALUV_BPY_PYTHON=/tmp/bpyvenv/bin/python")
+        raise Unavailable("Blender's bpy module not found: run `make blender-env` in the repository (bpy 4.5 in "
+                          ".venv-bpy, found automatically), or set NEURALUV_BPY_PYTHON to a Python that has "
+                          "`pip install 'bpy==4.5.*' numpy`")
     script = Path(__file__).with_name("_blender_unwrap.py")
     with tempfile.TemporaryDirectory(prefix="neuraluv_bpy_") as tmp:
         src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
@@ -115,14 +161,140 @@ def blender_map(V, F, mode="SMART", *, timeout=600, **params):
 
 
 def optcuts_binary():
-    """Path of the OptCuts binary: ``$NEURALUV_OPTCUTS`` or ``OptCuts_bin`` on PATH, or None."""
-    env = os.environ.get("NEURALUV_OPTCUTS")
-    if env:
-        return env if Path(env).exists() else None
-    return shutil.which("OptCuts_bin")
+    """Path of the OptCuts binary, or None.
+
+    ``$NEURALUV_OPTCUTS`` when set (None if that file does not exist), else the
+    one ``make baselines`` built (``.cache/third_party/bin/OptCuts_bin``), else
+    ``OptCuts_bin`` on PATH.
+    """
+    return _tool("NEURALUV_OPTCUTS", "OptCuts_bin")
 
 
-def optcuts_map(V, F, *, lambda_init=0.999, distortion_bound=4.1, bijective=1, method_type=0, timeout=600):
+def bff_binary():
+    """Path of the Boundary First Flattening command-line tool, or None.
+
+    ``$NEURALUV_BFF`` when set (None if that file does not exist), else the one
+    ``make baselines`` built (``.cache/third_party/bin/bff-command-line``),
+    else ``bff-command-line`` on PATH.
+    """
+    return _tool("NEURALUV_BFF", "bff-command-line")
+
+
+def bff_cli_map(V, F, *, n_cones=0, flatten_to_disk=False, normalize=True, prescale=1.0, timeout=600):
+    """Boundary First Flattening (Sawhney & Crane 2018) through its v1.6 command-line tool.
+
+    Runs, in a temporary directory::
+
+        bff-command-line in.obj out.obj --normalizeUVs [--nCones=N] [--flattenToDisk]
+
+    The default (no cones, free boundary: BFF's ``flatten(u = 0)``, the
+    minimal-area-distortion boundary) is the paper's BFF baseline for a disk
+    chart and what :func:`neuraluv.baselines.bff.bff_map` implements in
+    Python. Several components are flattened one by one and packed by the tool
+    (a closed component gets 8 cones, as the tool decides).
+
+    The tool writes ``v`` in the input's order (positions printed with six
+    decimals) and faces per component, each starting at another corner; the
+    faces are matched back to the input's by their vertex triple, so the
+    result has the input's face order, and the per-corner UVs are welded like
+    :func:`optcuts_map`'s.
+
+    The tool prints UVs with ``%f`` (six decimals). With ``--normalizeUVs``
+    (``normalize=True``, the tool's documented use) they are rounded to 1e-6 of
+    the layout's extent, which collapses near-degenerate triangles to zero area
+    (on Hand's crushed fingers, 13% of the faces). ``normalize=False,
+    prescale=1e4`` keeps the tool's own scale (the mesh's, times BFF's length
+    ratio) on an input scaled by 10⁴, so ten or more significant digits reach
+    the file; the map itself is the same (the tool normalises its input).
+
+    Parameters
+    ----------
+    n_cones : int
+        ``--nCones=N`` (0: none, the free-boundary flattening).
+    flatten_to_disk : bool
+        ``--flattenToDisk`` (a circular boundary instead of the free one).
+    normalize : bool
+        ``--normalizeUVs``.
+    prescale : float
+        The input is written multiplied by this factor (the returned mesh is
+        the input's, unscaled).
+
+    Returns
+    -------
+    (UV, V_cut, F_cut)
+    """
+    binary = bff_binary()
+    if binary is None:
+        raise Unavailable("BFF command-line tool (bff-command-line) not found: " + _BUILD_HINT
+                          + ", or set NEURALUV_BFF=/path/to/bff-command-line")
+    from neuraluv.io import read_obj
+
+    V = np.asarray(V, float)
+    F = np.asarray(F, np.int64)
+    with tempfile.TemporaryDirectory(prefix="neuraluv_bff_") as tmp:
+        tmp = Path(tmp)
+        src, dst = tmp / "in.obj", tmp / "out.obj"
+        _write_obj(src, V * float(prescale), F)
+        cmd = [binary, str(src), str(dst)]
+        if normalize:
+            cmd.append("--normalizeUVs")
+        if n_cones:
+            cmd.append(f"--nCones={int(n_cones)}")
+        if flatten_to_disk:
+            cmd.append("--flattenToDisk")
+        try:
+            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise RuntimeError(f"bff-command-line timed out after {timeout} s") from None
+        if proc.returncode != 0 or not dst.exists():
+            raise RuntimeError(f"bff-command-line failed (exit {proc.returncode}): {_tail(proc)[0]}")
+        Vo, Fo, UVo, FUV = read_obj(dst)
+    if UVo is None or len(UVo) == 0 or FUV is None:
+        raise RuntimeError("bff-command-line output has no texture coordinates")
+    corner_uv = np.asarray(UVo, float)[np.asarray(FUV, np.int64)]  # (m',3,2)
+    Fo = np.asarray(Fo, np.int64)
+    order = _match_faces(F, Fo) if len(Vo) == len(V) else None
+    if order is None:  # vertices were removed or split (non-manifold input): keep the tool's mesh
+        vidx, F_cut, UV_cut = weld_corners(Fo, corner_uv.reshape(-1, 2))
+        return UV_cut, np.asarray(Vo, float)[vidx], F_cut
+    src_face, shift = order
+    cu = np.empty((len(F), 3, 2))
+    rows = np.arange(len(Fo))
+    for j in range(3):  # corner j of input face src_face[t] is corner (j + shift) % 3 of output face t
+        cu[src_face, j] = corner_uv[rows, (j + shift) % 3]
+    vidx, F_cut, UV_cut = weld_corners(F, cu.reshape(-1, 2))
+    return UV_cut, V[vidx], F_cut
+
+
+def _match_faces(F, Fo):
+    """For each output face: the input face with the same vertices and the corner shift, or None.
+
+    Returns ``(src, shift)`` with ``Fo[t, (j + shift[t]) % 3] == F[src[t], j]``; None
+    when the faces are not a re-ordering of the input's (same orientation).
+    """
+    if len(F) != len(Fo):
+        return None
+    key = {tuple(sorted(f)): i for i, f in enumerate(F.tolist())}
+    src = np.empty(len(Fo), np.int64)
+    shift = np.empty(len(Fo), np.int64)
+    for t, f in enumerate(Fo.tolist()):
+        i = key.get(tuple(sorted(f)))
+        if i is None:
+            return None
+        g = F[i]
+        for s in range(3):
+            if f[s] == g[0] and f[(s + 1) % 3] == g[1]:
+                break
+        else:  # reversed orientation
+            return None
+        src[t], shift[t] = i, s
+    if len(np.unique(src)) != len(F):
+        return None
+    return src, shift
+
+
+def optcuts_map(V, F, *, lambda_init=0.999, distortion_bound=4.1, bijective=1, method_type=0, single_component=True,
+                timeout=600):
     """OptCuts (Li et al. 2018) through its command-line binary; it re-cuts the chart.
 
     Runs, in a temporary working directory (OptCuts writes ``output/<run>/``)::
@@ -134,8 +306,11 @@ def optcuts_map(V, F, *, lambda_init=0.999, distortion_bound=4.1, bijective=1, m
     (headless), lambda_init 0.999 (joint optimisation, updated automatically),
     methodType 0 (OptCuts), bound 4.1 on E_SD, bijectivity on; then reads
     ``finalResult_mesh.obj`` ("input model with output UV in the original
-    scale"). OptCuts accepts one connected component only, so several
-    components are an ``"init fail"`` (use ``per_component=True``).
+    scale"). OptCuts' README: "OptCuts takes input meshes with only one
+    connected component", so several components are an ``"init fail"``
+    (``per_component=True`` runs it on each); ``single_component=False``
+    hands them to the binary anyway (on Bob's three disks it converges to a
+    valid map).
 
     Returns
     -------
@@ -143,20 +318,18 @@ def optcuts_map(V, F, *, lambda_init=0.999, distortion_bound=4.1, bijective=1, m
     """
     binary = optcuts_binary()
     if binary is None:
-        raise Unavailable("OptCuts binary not found: install OptCuts (github.com/liminchen/OptCuts) and set "
-                          "NEURALUV_OPTCUTS=/path/to/OptCuts_bin")
-    from neuraluv.io import atomic_write, read_obj
+        raise Unavailable("OptCuts binary (OptCuts_bin) not found: " + _BUILD_HINT
+                          + ", or set NEURALUV_OPTCUTS=/path/to/OptCuts_bin; " + TRIANGLE_NOTE)
+    from neuraluv.io import read_obj
 
     ncomp = topology_scan(V, F).components
-    if ncomp != 1:
-        raise InitFail(f"OptCuts takes one connected component, the input has {ncomp}")
+    if ncomp != 1 and single_component:
+        raise InitFail(f"OptCuts takes one connected component (its README), the input has {ncomp}")
     with tempfile.TemporaryDirectory(prefix="neuraluv_optcuts_") as tmp:
         tmp = Path(tmp)
         (tmp / "input").mkdir()
         src = tmp / "input" / "mesh.obj"
-        with atomic_write(src) as fh:
-            fh.write("".join(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in np.asarray(V, float)))
-            fh.write("".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in np.asarray(F, np.int64)))
+        _write_obj(src, V, F)
         cmd = [binary, "100", str(src), str(lambda_init), "0", str(int(method_type)), str(distortion_bound),
                str(int(bijective)), "0"]
         try:
@@ -165,8 +338,7 @@ def optcuts_map(V, F, *, lambda_init=0.999, distortion_bound=4.1, bijective=1, m
             raise RuntimeError(f"OptCuts timed out after {timeout} s") from None
         found = sorted(tmp.glob("output/**/finalResult_mesh.obj"))
         if proc.returncode != 0 or not found:
-            tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["no output"]
-            raise RuntimeError(f"OptCuts failed (exit {proc.returncode}, no finalResult_mesh.obj): {tail[0]}")
+            raise RuntimeError(f"OptCuts failed (exit {proc.returncode}, no finalResult_mesh.obj): {_tail(proc)[0]}")
         Vo, Fo, UVo, FUV = read_obj(found[0])
     if UVo is None or len(UVo) == 0:
         raise RuntimeError("OptCuts output has no texture coordinates")

@@ -17,12 +17,16 @@ name                   what runs                                   metrics scale
                        from the uniform Tutte map (ours' start)
 ``slim-1k``            same, 1,000 iterations                      as solved
 ``bff``                Boundary First Flattening (:mod:`neuraluv.baselines.bff`)     rescaled
+``bff-cli``            the BFF v1.6 command-line tool (optional    rescaled
+                       binary, ``make baselines``): no cones,
+                       free boundary, ``--normalizeUVs``
 ``xatlas``             xatlas charting + packing of the whole mesh rescaled
 ``blender-smart``      Blender Smart UV Project (optional ``bpy``) rescaled
 ``blender-angle``      Blender Unwrap, ANGLE_BASED                 rescaled
 ``blender-conformal``  Blender Unwrap, CONFORMAL                   rescaled
 ``blender-minstretch`` Blender Unwrap, MINIMUM_STRETCH             rescaled
-``optcuts``            OptCuts binary (optional, recuts)           as solved
+``optcuts``            OptCuts binary (optional, ``make            as solved
+                       baselines``; recuts)
 ``neural``             :func:`neuraluv.solver.solve_chart`         as solved
 =====================  ==========================================  ===============
 
@@ -64,7 +68,7 @@ import numpy as np
 
 from neuraluv.baselines.bff import bff_map
 from neuraluv.baselines.common import InitFail, Unavailable, orient_charts
-from neuraluv.baselines.external import BLENDER_MODES, blender_map, optcuts_map, xatlas_map
+from neuraluv.baselines.external import BLENDER_MODES, bff_cli_map, blender_map, optcuts_map, xatlas_map
 from neuraluv.baselines.libigl import arap, harmonic, lscm, slim
 from neuraluv.metrics import distortion_metrics, match_area
 from neuraluv.solver.result import ChartResult
@@ -230,7 +234,7 @@ def _neural_method(V, F, **kw):
 
 
 #: Methods whose output scale is arbitrary (rescaled with match_area before metrics).
-SCALE_FREE = {"harmonic", "lscm", "bff", "xatlas", *BLENDER_MODES}
+SCALE_FREE = {"harmonic", "lscm", "bff", "bff-cli", "xatlas", *BLENDER_MODES}
 
 #: name -> function(V, F, **kw) -> BaselineResult
 METHODS = {
@@ -240,6 +244,7 @@ METHODS = {
     "slim-20": _make("slim-20", lambda V, F, iterations=20: slim(V, F, iterations=iterations), False),
     "slim-1k": _make("slim-1k", lambda V, F, iterations=1000: slim(V, F, iterations=iterations), False),
     "bff": _make("bff", bff_map, True),
+    "bff-cli": _make("bff-cli", bff_cli_map, True, cut=True),
     "xatlas": _make("xatlas", xatlas_map, True, cut=True),
     **{name: _make(name, _blender(mode), True, cut=True) for name, mode in BLENDER_MODES.items()},
     "optcuts": _make("optcuts", optcuts_map, False, cut=True),

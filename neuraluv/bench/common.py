@@ -9,12 +9,15 @@ from neuraluv.errors import NeuralUVError
 __all__ = ["METHODS", "LABELS", "RECUT", "DEFAULT_MESHES", "QUICK_MESHES", "QUICK_SIZES", "QUICK_METHODS", "MESH_LABELS",
            "load_meshes", "neural_options", "result_row"]
 
-#: Table 2's methods, in the paper's order (OptCuts last: it recuts).
-METHODS = ["lscm", "arap", "slim-1k", "bff", "neural", "optcuts"]
+#: Table 2's methods, in the paper's order (OptCuts last: it recuts), then the external tools the
+#: paper names beside them: the BFF v1.6 binary next to our BFF, and Blender's unwrappers (optional
+#: binaries / ``bpy``: rows read ``unavailable`` without them, and ``--resume`` recomputes such rows).
+METHODS = ["lscm", "arap", "slim-1k", "bff", "bff-cli", "neural", "optcuts",
+           "blender-angle", "blender-conformal", "blender-minstretch", "blender-smart"]
 #: Display names.
 LABELS = {"harmonic": "Harmonic", "lscm": "LSCM", "arap": "ARAP", "slim-20": "SLIM-20", "slim-1k": "SLIM-1k",
-          "bff": "BFF", "neural": "Ours", "optcuts": "OptCuts (re-cut)", "xatlas": "xatlas (re-cut)",
-          "blender-smart": "Blender Smart UV", "blender-angle": "Blender Angle Based",
+          "bff": "BFF", "bff-cli": "BFF v1.6 binary", "neural": "Ours", "optcuts": "OptCuts (re-cut)", "xatlas": "xatlas (re-cut)",
+          "blender-smart": "Blender Smart UV (re-cut)", "blender-angle": "Blender Angle Based",
           "blender-conformal": "Blender Conformal", "blender-minstretch": "Blender Min. Stretch"}
 #: Methods that cut their own seams (not fixed-chart solvers).
 RECUT = {"optcuts", "xatlas", "blender-smart"}

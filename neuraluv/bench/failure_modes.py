@@ -18,10 +18,13 @@ from neuraluv.bench.common import DEFAULT_MESHES, LABELS, MESH_LABELS, QUICK_MES
 from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, machine_info,
                      markdown_table, plain, progress, with_paper, write_csv, write_markdown)
 
-__all__ = ["bench", "add_arguments", "run", "METHODS", "cell"]
+__all__ = ["bench", "add_arguments", "run", "METHODS", "PAPER_METHODS", "cell"]
 
-#: Table 3's columns after C/B.
-METHODS = ["slim-20", "slim-1k", "bff", "optcuts"]
+#: Table 3's columns after C/B (the paper's four, then the BFF binary beside our BFF and Blender's unwrappers).
+METHODS = ["slim-20", "slim-1k", "bff", "bff-cli", "optcuts", "blender-angle", "blender-conformal",
+           "blender-minstretch", "blender-smart"]
+#: The paper's own columns (its findings are checked for these).
+PAPER_METHODS = ["slim-20", "slim-1k", "bff", "optcuts"]
 
 
 def cell(row):
@@ -45,7 +48,7 @@ def cell(row):
 
 
 def _paper_cell(mesh, meth):
-    v = PV.TABLE3.get(mesh, {}).get(meth)
+    v = PV.TABLE3.get(mesh, {}).get(PV.paper_method(meth))
     if v is None:
         return None
     kind, x = v
@@ -65,7 +68,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     meshes : list of str, optional
         Default Hand, Bob, Camel (``quick``: procedural stand-ins).
     methods : list of str, optional
-        Default :data:`METHODS`.
+        Default :data:`METHODS` (``quick``: the paper's four, :data:`PAPER_METHODS`).
     neural : bool
         Add our solver as a context column.
 
@@ -79,7 +82,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
-    methods = list(methods or METHODS) + (["neural"] if neural else [])
+    methods = list(methods or (PAPER_METHODS if quick else METHODS)) + (["neural"] if neural else [])
     nkw = neural_options(preset, quick, seed, device, **overrides)
     loaded, missing = load_meshes(names, quick)
     log = RowLog(out / "rows.jsonl", resume=resume)
@@ -146,11 +149,11 @@ def _findings(rows):
 
     F = []
     for mesh, spec in PV.TABLE3.items():
-        for meth in METHODS:
+        for meth in PAPER_METHODS + ["bff-cli"]:  # the BFF binary is judged against the paper's BFF column
             r = get(mesh, meth)
-            if r is None or meth not in spec:
+            if r is None or PV.paper_method(meth) not in spec:
                 continue
-            kind, _ = spec[meth]
+            kind, _ = spec[PV.paper_method(meth)]
             if r["status"] == "unavailable":
                 F.append((f"{MESH_LABELS[mesh]} / {LABELS[meth]}: paper reports {_paper_cell(mesh, meth)}", None, r["cell"]))
                 continue

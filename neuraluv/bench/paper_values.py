@@ -9,7 +9,23 @@ Percentages are stored as percent (``13.56`` for "13.56\\%"), times in seconds.
 """
 from __future__ import annotations
 
-__all__ = ["TABLE2", "TABLE2_GREYED", "TABLE3", "TABLE4", "TABLE5", "TABLE6", "TABLE7", "TEXT", "CAPTIONS"]
+__all__ = ["PAPER_METHOD", "paper_method", "TABLE2", "TABLE2_GREYED", "TABLE3", "TABLE4", "TABLE5", "TABLE6", "TABLE7", "TEXT", "CAPTIONS"]
+
+#: Our methods whose rows carry another method's paper value: the paper's BFF column is shown beside
+#: both our Python BFF (``bff``) and the BFF v1.6 command-line tool (``bff-cli``).
+PAPER_METHOD = {"bff-cli": "bff"}
+
+
+def paper_method(method):
+    """The paper's column for one of our methods.
+
+    Examples
+    --------
+    >>> paper_method("bff-cli"), paper_method("lscm")
+    ('bff', 'lscm')
+    """
+    return PAPER_METHOD.get(method, method)
+
 
 # ------------------------------------------------------------------ Table 2
 #: ``tab:compact_prelim``: (mesh, method) -> metrics. Keys of the metric dicts

@@ -53,9 +53,11 @@ def fmt_num(x, digits=2):
     --------
     >>> fmt_num(4.1372), fmt_num(1.47e9), fmt_num(30909.1), fmt_num(float("nan")), fmt_num(None)
     ('4.14', '1.47×10^9', '30909.10', '—', '—')
-    >>> fmt_num(float("inf")), fmt_num(-11.784)
-    ('∞', '-11.78')
+    >>> fmt_num(float("inf")), fmt_num(-11.784), fmt_num("inf")   # "inf": a non-finite number read back from JSON
+    ('∞', '-11.78', '∞')
     """
+    if isinstance(x, str) and x in ("inf", "-inf", "nan"):
+        x = float(x)
     if x is None or isinstance(x, str):
         return "—" if x is None else x
     x = float(x)
@@ -150,8 +152,14 @@ def fraction(n, N, what="", pct=False):
 # ------------------------------------------------------------------ provenance
 
 def git_commit():
-    """Short commit of the source tree (``+dirty`` with local changes), or ``"unknown"``."""
-    root = Path(__file__).resolve().parent.parent
+    """Short commit of the source tree (``+dirty`` with local changes to ``neuraluv/``), or ``"unknown"``.
+
+    Examples
+    --------
+    >>> c = git_commit(); c == "unknown" or len(c.split("+")[0]) >= 7
+    True
+    """
+    root = Path(__file__).resolve().parents[2]  # the checkout: neuraluv/bench/provenance.py -> ../../..
     try:
         sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True,
                              timeout=10).stdout.strip()
@@ -292,7 +300,10 @@ class RowLog:
     """A JSONL log of finished rows, keyed by ``(mesh, method, config)``.
 
     With ``resume=False`` the log is emptied; with ``resume=True`` rows
-    already in it are kept and :meth:`done` tells the runner to skip them.
+    already in it are kept and :meth:`done` tells the runner to skip them —
+    except rows whose ``status`` is in :attr:`REDO` (``"unavailable"``: an
+    optional binary or module was missing then and may be installed now),
+    which are recomputed and appended (the last line of a key wins).
 
     Examples
     --------
@@ -301,9 +312,15 @@ class RowLog:
     True
     >>> RowLog(d + "/rows.jsonl", resume=True).get(("camel", "lscm", {}))["esd"]
     1.0
+    >>> _ = RowLog(d + "/rows.jsonl", resume=True).add(("camel", "optcuts", {}), {"status": "unavailable"})
+    >>> RowLog(d + "/rows.jsonl", resume=True).done(("camel", "optcuts", {}))
+    False
     >>> RowLog(d + "/rows.jsonl", resume=False).done(("camel", "lscm", {}))
     False
     """
+
+    #: Logged statuses that ``--resume`` recomputes instead of reusing.
+    REDO = ("unavailable",)
 
     def __init__(self, path, resume=False):
         self.path = Path(path)
@@ -330,7 +347,8 @@ class RowLog:
         return json.dumps([str(mesh), str(method), config], sort_keys=True, default=str)
 
     def done(self, key):
-        return self.key(key) in self.rows
+        row = self.rows.get(self.key(key))
+        return row is not None and not (isinstance(row, dict) and row.get("status") in self.REDO)
 
     def get(self, key):
         return self.rows.get(self.key(key))
