@@ -1,11 +1,19 @@
 #!/usr/bin/env python
-"""Check a built book: every notebook is a page with figures, the API pages exist, a page renders in Chromium.
+"""Check a built book: every notebook is a page with figures, the API pages exist, pages render in Chromium.
 
     python book/check.py                 # checks book/_build/html (run `python book/build.py` first)
     python book/check.py --html DIR      # another build
 
+Checks: every notebook became a page with embedded figures and no traceback; the
+intro, paper-scale and API pages exist; headless Chromium renders the first page
+(screenshot not blank); the quickstart's interactive solve film (plotly, with an
+iteration slider) is in its page, plotly.js is embedded (no CDN), and Chromium
+draws it: the figure's div gets plotly's SVG layers and the slider, and a
+screenshot of the figure alone shows the det J colours. The screenshots are kept in
+``<html>/../check/`` for a person to look at.
+
 Exit status 0 when every check passes; 1 with one line per failed check.
-The Chromium screenshot is skipped (with a note) when no chromium is installed.
+The Chromium checks are skipped (with a note) when no chromium is installed.
 """
 from __future__ import annotations
 
@@ -19,6 +27,8 @@ from pathlib import Path
 
 BOOK = Path(__file__).resolve().parent
 NOTEBOOKS = sorted((BOOK.parent / "notebooks").glob("*.ipynb"))
+#: the page that must carry an interactive plotly figure with an iteration slider
+PLOTLY_PAGE = "00_quickstart"
 
 
 def check_pages(html: Path) -> list[str]:
@@ -51,8 +61,18 @@ def check_pages(html: Path) -> list[str]:
     return errors
 
 
+def _chromium():
+    return shutil.which("chromium") or ("/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None)
+
+
+def _chromium_cmd(chromium, tmp, *extra):
+    return [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            f"--user-data-dir={Path(tmp) / 'profile'}", *extra]
+
+
 def check_screenshot(html: Path) -> list[str]:
-    chromium = shutil.which("chromium") or ("/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None)
+    chromium = _chromium()
     if chromium is None:
         print("book/check.py: chromium not installed, screenshot check SKIPPED (Debian: apt-get install -y chromium)")
         return []
@@ -62,14 +82,14 @@ def check_screenshot(html: Path) -> list[str]:
     page = html / "notebooks" / f"{NOTEBOOKS[0].stem}.html"
     with tempfile.TemporaryDirectory() as tmp:
         shot = Path(tmp) / "page.png"
-        cmd = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-               "--disable-background-networking", "--disable-component-update", "--disable-sync",
-               f"--user-data-dir={Path(tmp) / 'profile'}", f"--screenshot={shot}", "--window-size=1200,900",
-               page.as_uri()]
+        cmd = _chromium_cmd(chromium, tmp, f"--screenshot={shot}", "--window-size=1200,900", page.as_uri())
         subprocess.run(cmd, capture_output=True, timeout=180)
         if not shot.exists():
             return ["chromium wrote no screenshot"]
         img = np.asarray(matplotlib.image.imread(shot))[..., :3].astype(float)
+        keep = html.parent / "check"
+        keep.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(shot, keep / "first_page.png")
     if img.shape[:2] != (900, 1200):
         return [f"screenshot has shape {img.shape[:2]}, expected (900, 1200)"]
     grey = img.mean(axis=2)
@@ -81,6 +101,83 @@ def check_screenshot(html: Path) -> list[str]:
     return []
 
 
+_ISOLATE = """<script>
+(function () {  // show only the plotly figure (a headless screenshot cannot scroll), then let plotly fit it again
+  var d = document.querySelector(".plotly-graph-div");
+  if (!d) { return; }
+  for (var n = d; n && n !== document.body; n = n.parentElement) {
+    var p = n.parentElement;
+    if (!p) { break; }
+    for (var i = 0; i < p.children.length; i++) {
+      var c = p.children[i];
+      if (c !== n && c.tagName !== "SCRIPT") { c.style.display = "none"; }
+    }
+  }
+  window.scrollTo(0, 0);
+  setTimeout(function () { if (window.Plotly) { window.Plotly.Plots.resize(d); } }, 1000);
+})();
+</script>
+"""
+
+
+def check_plotly(html: Path) -> list[str]:
+    """The quickstart's solve film: a plotly div with frames and a slider, plotly.js embedded, drawn by Chromium."""
+    page = html / "notebooks" / f"{PLOTLY_PAGE}.html"
+    if not page.exists():
+        return [f"{page.name}: missing (the page with the plotly slider)"]
+    text = page.read_text(encoding="utf-8")
+    divs = re.findall(r'<div id="([^"]+)" class="plotly-graph-div"', text)
+    if not divs:
+        return [f"{page.name}: no plotly figure (class plotly-graph-div) in the page"]
+    errors = []
+    if "Plotly.newPlot" not in text or "Plotly.addFrames" not in text:
+        errors.append(f"{page.name}: the plotly div has no figure data (Plotly.newPlot, Plotly.addFrames)")
+    if '"sliders"' not in text:
+        errors.append(f"{page.name}: the plotly figure has no slider")
+    if re.search(r'<script[^>]+src="https?://cdn\.plot\.ly', text):
+        errors.append(f"{page.name}: plotly.js is loaded from a CDN, not embedded (it would not render offline)")
+    chromium = _chromium()
+    if errors or chromium is None:
+        if chromium is None:
+            print("book/check.py: chromium not installed, plotly rendering check SKIPPED")
+        return errors
+    import matplotlib.image
+    import numpy as np
+
+    probe = page.with_name(f"_check_{page.name}")
+    probe.write_text(text.replace("</body>", _ISOLATE + "</body>"), encoding="utf-8")
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            dom = subprocess.run(_chromium_cmd(chromium, tmp, "--virtual-time-budget=30000", "--dump-dom",
+                                               probe.as_uri()),
+                                 capture_output=True, timeout=240, text=True).stdout
+            start = dom.find(f'id="{divs[0]}"')
+            rendered = dom[start:start + 2_000_000] if start >= 0 else ""
+            if start < 0:
+                errors.append(f"{page.name}: the plotly div is absent from the rendered page")
+            elif "main-svg" not in rendered or "slider-container" not in rendered:
+                errors.append(f"{page.name}: plotly did not draw the figure (div empty: no SVG layers or no slider)")
+            shot = Path(tmp) / "plotly.png"
+            subprocess.run(_chromium_cmd(chromium, tmp, "--virtual-time-budget=30000", f"--screenshot={shot}",
+                                         "--window-size=1200,900", probe.as_uri()),
+                           capture_output=True, timeout=240)
+            if not shot.exists():
+                return errors + ["chromium wrote no screenshot of the plotly figure"]
+            keep = html.parent / "check"
+            keep.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(shot, keep / "plotly_slider.png")
+            img = np.asarray(matplotlib.image.imread(shot))[..., :3].astype(float)
+    finally:
+        probe.unlink(missing_ok=True)
+    sat = img.max(axis=2) - img.min(axis=2)
+    coloured = float((sat > 0.25).mean())
+    if img.mean(axis=2).std() <= 0.05:
+        errors.append("the screenshot of the plotly figure is blank")
+    elif coloured < 0.005:
+        errors.append(f"the screenshot of the plotly figure shows no coloured mesh ({coloured:.4f} of the pixels coloured)")
+    return errors
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--html", type=Path, default=BOOK / "_build" / "html", help="the built HTML folder")
@@ -88,10 +185,13 @@ def main(argv=None) -> int:
     errors = check_pages(a.html)
     if not errors:
         errors = check_screenshot(a.html)
+    if not errors:
+        errors = check_plotly(a.html)
     for e in errors:
         print(f"book check failed: {e}", file=sys.stderr)
     if not errors:
-        print(f"book check passed: {len(NOTEBOOKS)} notebook pages with figures and the API pages")
+        print(f"book check passed: {len(NOTEBOOKS)} notebook pages with figures and the API pages; "
+              f"the plotly solve slider renders ({a.html.parent / 'check'})")
     return 1 if errors else 0
 
 
