@@ -343,11 +343,12 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
         return max(tries, key=lambda r: (-int(r.pages.max()), r.utilisation))
     uvs = [np.asarray(u, float) for u in uvs]
     faces = [np.asarray(f, np.int64) for f in faces]
-    off = np.cumsum([0] + [len(u) for u in uvs])
-    start = shelf_pack(uvs, None, padding=2.0, resolution=4096)
+    sent, sent_f = _proxies(uvs, faces)
+    off = np.cumsum([0] + [len(u) for u in sent])
+    start = shelf_pack(sent, None, padding=2.0, resolution=4096)
     s0 = start.scale
     pts = np.vstack(start.uvs).astype(np.float32)
-    allf = np.vstack([f + o for f, o in zip(faces, off[:-1])]).astype(np.uint32)
+    allf = np.vstack([f + o for f, o in zip(sent_f, off[:-1])]).astype(np.uint32)
     area = sum(_poly_area(u, f) for u, f in zip(uvs, faces))
     pad = float(padding)
     k = int(supersample)
@@ -376,7 +377,7 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
                 else:
                     hi = mid
             tex = lo
-        packed, pages = _read_placement(at, uvs, off, tex, pad, resolution, k)
+        packed, pages = _read_placement(at, uvs, sent, off, tex, pad, resolution, k)
         gap = _min_gap(packed, faces, pages)
         if gap * resolution >= pad * (1 - 1e-6):
             util = sum(_poly_area(u, f) for u, f in zip(packed, faces)) / max(1, int(pages.max()) + 1)
@@ -386,7 +387,26 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
     raise ValueError("tight_pack could not reach the padding; use the shelf packer")
 
 
-def _read_placement(at, uvs, off, tex, pad, resolution, k=1):
+def _proxies(uvs, faces):
+    """What xatlas is given per chart: the chart, or for a sliver (xatlas does not place
+    charts of no rasterised area) its bounding box thickened to 5% of its length."""
+    sent, sent_f = [], []
+    quad = np.array([[0, 1, 2], [0, 2, 3]])
+    for u, f in zip(uvs, faces):
+        lo, hi = u.min(0), u.max(0)
+        ext = hi - lo
+        box = float(ext[0] * ext[1])
+        if ext.min() < 0.05 * ext.max() or _poly_area(u, f) < 0.05 * box:
+            c, h = 0.5 * (lo + hi), np.maximum(ext, 0.05 * ext.max()) / 2
+            sent.append(np.array([c - h, [c[0] + h[0], c[1] - h[1]], c + h, [c[0] - h[0], c[1] + h[1]]]))
+            sent_f.append(quad)
+        else:
+            sent.append(u)
+            sent_f.append(f)
+    return sent, sent_f
+
+
+def _read_placement(at, uvs, sent, off, tex, pad, resolution, k=1):
     """Place each chart (at ``tex`` texels per unit) where xatlas put it; returns (uvs, pages).
 
     The chart's rotation is the least-squares fit (Procrustes) of xatlas's output to
@@ -403,7 +423,10 @@ def _read_placement(at, uvs, off, tex, pad, resolution, k=1):
     packed, pages = [], np.zeros(len(uvs), np.int64)
     for i, u in enumerate(uvs):
         sel = order[bounds[i]:bounds[i + 1]]
-        P = u[vmap[sel] - off[i]]
+        sel = sel[page[sel] < at.atlas_count]  # xatlas marks vertices it did not place with 0xFFFFFFFF
+        if len(sel) < 2:
+            raise ValueError("xatlas did not place a chart (zero area at its scale)")
+        P = sent[i][vmap[sel] - off[i]]
         Q = q[sel]
         pc, qc = P - P.mean(0), Q - Q.mean(0)
         U, _, Vt = np.linalg.svd(pc.T @ qc)
