@@ -193,7 +193,7 @@ def test_cli_bench_runs_and_resumes(tmp_path, capsys):
     assert main(args + ["--resume"]) == 0
     assert f"{kept} row(s) taken from the resume log" in capsys.readouterr().out
     rows = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
-    assert {(r["row"]["method"], r["row"]["status"]) for r in rows} == {(r["row"]["method"], r["row"]["status"]) for r in first}
+    assert {(r["key"], r["row"]["status"]) for r in rows} == {(r["key"], r["row"]["status"]) for r in first}
     failed = [r["row"] for r in rows if r["row"]["status"] == "init fail"]
     assert failed and all(np.isnan(float(r["esd"])) for r in failed)  # a method that made no map has no number
 
