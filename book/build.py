@@ -29,7 +29,20 @@ from pathlib import Path
 
 BOOK = Path(__file__).resolve().parent
 NOTEBOOKS = BOOK.parent / "notebooks"
-SOURCES = ["_config.yml", "_toc.yml", "intro.md", "paper_scale.md", "api.md"]
+SOURCES = ["_config.yml", "_toc.yml", "intro.md", "glossary.md", "symbols.md", "claims.md", "paper_scale.md", "api.md"]
+
+
+def write_claims_page(book: Path = BOOK) -> bool:
+    """Regenerate ``claims.md`` from the committed results (``neuraluv.notebook.claims_page``); True when it changed."""
+    sys.path.insert(0, str(book.parent))
+    from neuraluv.notebook import claims_page
+
+    page = book / "claims.md"
+    text = claims_page()
+    if page.exists() and page.read_text(encoding="utf-8") == text:
+        return False
+    page.write_text(text, encoding="utf-8")
+    return True
 
 
 def sync_notebooks(src_dir: Path, dest_dir: Path) -> list[Path]:
@@ -100,6 +113,8 @@ def main(argv=None) -> int:
     p.add_argument("--strict", action="store_true", help="treat Sphinx warnings as errors (-W --keep-going)")
     a = p.parse_args(argv)
 
+    if write_claims_page():
+        print("book/claims.md regenerated from results/ (commit it)", flush=True)
     if a.output is not None:
         out = a.output.resolve()
         src = stage(out / "src")

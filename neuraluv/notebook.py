@@ -6,15 +6,29 @@ seeds. Setting the environment variable ``NEURALUV_PAPER_SCALE=1`` before
 starting Jupyter (or ``make book``) switches every notebook to the paper's
 settings (the ``"paper"`` preset, the compact real charts when they are
 cached). Notebooks choose between the two with :func:`budget`.
+
+The module also keeps the notebooks quiet (:func:`setup` routes VTK to an
+off-screen EGL window when there is no display and imports tqdm without its
+widget warning) and reads the *claims checklist*: every "paper's findings on
+our data" block of the committed ``results/*/table*.md`` reports
+(:func:`findings`), the rows a chapter touches (:func:`checklist`) and the
+book's claim → notebook → evidence page (:func:`claims_page`).
 """
 from __future__ import annotations
 
+import ctypes.util
 import os
 import random
+import re
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart"]
+__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "quiet_environment",
+           "PAPER_TABLES", "CHAPTER_CLAIMS", "Claim", "results_dir", "parse_findings", "findings", "checklist",
+           "claims_page"]
 
 #: Name of the environment variable that selects paper-scale runs.
 ENV_VAR = "NEURALUV_PAPER_SCALE"
@@ -84,7 +98,7 @@ def setup(seed=0, threads="auto"):
     """
     import torch
 
-    os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+    quiet_environment()
     random.seed(seed)
     np.random.seed(seed)
     torch.manual_seed(seed)
@@ -93,6 +107,48 @@ def setup(seed=0, threads="auto"):
     if threads:
         torch.set_num_threads(int(threads))
     return mode()
+
+
+def quiet_environment(environ=None):
+    """Silence the two stray stderr lines a notebook kernel would otherwise print.
+
+    * VTK: without a display, pyvista's default X window prints "bad X server
+      connection" on the first render. When no ``DISPLAY`` is set and libEGL is
+      present, VTK is pointed at its EGL window (``VTK_DEFAULT_OPENGL_WINDOW``),
+      which renders off screen without X; a user's own setting is kept.
+    * tqdm: ``tqdm.auto`` warns "IProgress not found" once, on import, in a
+      kernel without ipywidgets (pyvista imports it). It is imported here with
+      that warning suppressed (it then falls back to the text bar).
+
+    Parameters
+    ----------
+    environ : mutable mapping, optional
+        Where to set the variables (default ``os.environ``).
+
+    Returns
+    -------
+    dict
+        The variables it set (empty when it changed nothing).
+
+    Examples
+    --------
+    >>> quiet_environment({"DISPLAY": ":0", "PYVISTA_OFF_SCREEN": "true"})
+    {}
+    """
+    env = os.environ if environ is None else environ
+    changed = {}
+    if "PYVISTA_OFF_SCREEN" not in env:
+        changed["PYVISTA_OFF_SCREEN"] = "true"
+    if not env.get("DISPLAY") and "VTK_DEFAULT_OPENGL_WINDOW" not in env and ctypes.util.find_library("EGL"):
+        changed["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+    env.update(changed)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*IProgress not found.*")
+        try:
+            import tqdm.auto  # noqa: F401  (cached: later imports do not warn again)
+        except ImportError:
+            pass
+    return changed
 
 
 def load_chart(quick="glove", paper="camel", **quick_kwargs):
@@ -141,3 +197,267 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
     except datasets.DataMissing as err:
         print(f"{err}: using the procedural {quick!r} chart instead")
         return (quick, *_quick())
+
+
+# ----------------------------------------------------------------- the claims checklist
+
+#: The paper's tables in the LaTeX source's order (so ``number`` is the paper's
+#: Table N), with where this package's evidence lives: ``results`` is the
+#: committed report (``None``: nothing committed) and ``runner`` the
+#: ``neuraluv bench`` command that writes it (``None``: no runner). The report
+#: file names keep the project's older numbering (``table2_compact.md`` is the
+#: paper's Table 1).
+PAPER_TABLES = (
+    dict(number=1, label="tab:compact_prelim", title="compact pre-cut charts",
+         results="compact/table2_compact.md", runner="compact"),
+    dict(number=2, label="tab:slim_failure_modes", title="compact baseline failure modes",
+         results="failure-modes/table3_failure_modes.md", runner="failure-modes"),
+    dict(number=3, label="tab:ablation_prelim", title="compact ablations",
+         results="ablation/table4_ablation.md", runner="ablation"),
+    dict(number=4, label="tab:ntk_compact_controls", title="NTK–LBO subspace alignment",
+         results="ntk/table5.md", runner="ntk"),
+    dict(number=5, label="tab:thingi_scale", title="Thingi10K / xatlas-cut charts",
+         results="charts/table6_charts.md", runner="charts"),
+    dict(number=6, label="tab:runtime_pareto", title="runtime–quality Pareto sweep (CUDA)",
+         results=None, runner="pareto"),
+    dict(number=7, label="tab:amara_coverage_validity", title="Amara coverage and validity",
+         results=None, runner=None),
+    dict(number=8, label="tab:amara_blender_methods", title="Blender chart-level baselines on Amara",
+         results=None, runner=None),
+    dict(number=9, label="tab:amara_large_sweep", title="larger Amara atlas runs (Rust implementation)",
+         results=None, runner=None),
+)
+
+#: Which checklist rows each chapter touches: (report file, a substring of the
+#: claim as the committed report words it) or the paper's table number for a
+#: table without a committed report. ``"08"`` shows every row.
+CHAPTER_CLAIMS = {
+    "00b": [("compact/table2_compact.md", "only ours is foldover-free"),
+            ("compact/table2_compact.md", "Camel: LSCM and ARAP still fold")],
+    "01": [("ablation/table4_ablation.md", "Removing LBO features"),
+           ("ntk/table5.md", "Spectral inputs raise S(16) at init"),
+           ("ntk/table5.md", "Spectral inputs raise S(4) at init")],
+    "02": [("ablation/table4_ablation.md", "Spectral init"),
+           ("ablation/table4_ablation.md", "Random init")],
+    "03": [("compact/table2_compact.md", "only ours is foldover-free"),
+           ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold")],
+    "04": [("compact/table2_compact.md", "only ours is foldover-free"),
+           ("compact/table2_compact.md", "slower than LSCM"),
+           ("charts/table6_charts.md", "valid on most xatlas charts"), 6],
+    "06": [("ntk/table5.md", ""), ("ablation/table4_ablation.md", "bandwidth rows")],
+    "07": [("charts/table6_charts.md", "valid on most xatlas charts"), 7, 8, 9],
+    "09": [("compact/table2_compact.md", "Camel: LSCM and ARAP still fold"),
+           ("compact/table2_compact.md", "OptCuts resolves Hand and Camel")],
+}
+
+_FINDINGS_HEADINGS = ("## The paper's findings on our data", "## Does our data show the paper's effects?")
+_VERDICTS = {"holds": "holds", "does not hold here": "does not hold here", "does not hold": "does not hold here",
+             "not tested": "not tested", "yes": "holds", "no": "does not hold here"}
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One row of the claims checklist.
+
+    ``source``: the report it was read from, relative to ``results/`` (None for
+    a table without one); ``table``: the paper's table number (LaTeX order) or
+    None; ``claim``: the paper's claim as the report words it; ``verdict``:
+    ``holds`` / ``does not hold here`` / ``not tested`` / ``not run``;
+    ``detail``: our numbers.
+    """
+
+    source: str | None
+    table: int | None
+    claim: str
+    verdict: str
+    detail: str
+
+
+def results_dir():
+    """The committed ``results/`` folder next to the package (``$NEURALUV_RESULTS`` overrides it)."""
+    env = os.environ.get("NEURALUV_RESULTS")
+    return Path(env) if env else Path(__file__).resolve().parents[1] / "results"
+
+
+def _table_of(source):
+    for t in PAPER_TABLES:
+        if t["results"] == source:
+            return t
+    return None
+
+
+def parse_findings(text, source=None, table=None):
+    """The claims of one report's findings block(s), parsed from its Markdown.
+
+    Two formats are read: ``- claim — **holds**: detail`` (the table runners)
+    and ``- **claim: YES.** detail`` (the NTK runner).
+
+    Examples
+    --------
+    >>> md = '''# Table
+    ... ## The paper's findings on our data
+    ...
+    ... - A beats B — **holds**: 3 vs 4
+    ... - C folds — **does not hold here**: 0.00% flips
+    ...
+    ... Paper caption: ...
+    ... ## Does our data show the paper's effects?
+    ... - **k raises S(16): YES.** 0.5 -> 0.8
+    ... '''
+    >>> [(c.claim, c.verdict, c.detail) for c in parse_findings(md)]  # doctest: +NORMALIZE_WHITESPACE
+    [('A beats B', 'holds', '3 vs 4'), ('C folds', 'does not hold here', '0.00% flips'),
+     ('k raises S(16)', 'holds', '0.5 -> 0.8')]
+    """
+    out, inside, items = [], False, []
+    for line in text.splitlines():
+        if line.startswith("#"):
+            inside = line.strip() in _FINDINGS_HEADINGS
+            continue
+        if not inside:
+            continue
+        if line.startswith("- "):
+            items.append(line[2:].strip())
+        elif line.startswith("  ") and items:
+            items[-1] += " " + line.strip()
+        elif line.strip() and items:
+            inside = False  # the list ended (caption, notes)
+    for item in items:
+        m = re.match(r"^(?P<claim>.+?)\s+—\s+\*\*(?P<v>[^*]+)\*\*:?\s*(?P<detail>.*)$", item)
+        if m is None:
+            m = re.match(r"^\*\*(?P<claim>.+?):\s*(?P<v>YES|NO)\.?\*\*\s*(?P<detail>.*)$", item)
+        if m is None:
+            continue
+        verdict = _VERDICTS.get(m["v"].strip().lower(), m["v"].strip())
+        out.append(Claim(source, table, m["claim"].strip(), verdict, m["detail"].strip()))
+    return out
+
+
+def findings(root=None):
+    """Every claim of every committed ``results/*/table*.md`` findings block, in the paper's table order.
+
+    Returns
+    -------
+    list of Claim
+        Empty when there is no ``results/`` folder (an installed package).
+    """
+    root = results_dir() if root is None else Path(root)
+    out = []
+    for path in sorted(root.glob("*/table*.md")):
+        source = path.relative_to(root).as_posix()
+        t = _table_of(source)
+        out += parse_findings(path.read_text(encoding="utf-8"), source, t["number"] if t else None)
+    return sorted(out, key=lambda c: (c.table is None, c.table or 0))
+
+
+def _not_run(number):
+    t = next(t for t in PAPER_TABLES if t["number"] == number)
+    if t["runner"] is None:
+        why = "no runner in this package: the Amara Spatial assets (and the paper's Rust atlas code) are not available"
+    else:
+        why = f"no committed run; the runner is `neuraluv bench {t['runner']}`"
+    return Claim(None, number, t["title"][0].upper() + t["title"][1:], "not run", why)
+
+
+def _every_row(claims):
+    rows = claims + [_not_run(t["number"]) for t in PAPER_TABLES if t["results"] is None]
+    return sorted(rows, key=lambda c: (c.table is None, c.table or 0))
+
+
+def _select(chapter, claims):
+    rows = []
+    for sel in CHAPTER_CLAIMS.get(chapter, []):
+        if isinstance(sel, int):
+            rows.append(_not_run(sel))
+            continue
+        source, text = sel
+        rows += [c for c in claims if c.source == source and text in c.claim and c not in rows]
+    return rows
+
+
+def _cell(text):
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _table(rows, with_notebooks=False, claims=None):
+    head = "| Paper | Claim | On our data | Evidence |"
+    sep = "|:--|:--|:--|:--|"
+    if with_notebooks:
+        head, sep = head + " Notebooks |", sep + ":--|"
+    lines = [head, sep]
+    for c in rows:
+        paper = f"Table {c.table}" if c.table else "—"
+        evidence = f"`results/{c.source}`" if c.source else "—"
+        verdict = f"**{c.verdict}**" + (f": {c.detail}" if c.detail else "")
+        line = f"| {paper} | {_cell(c.claim)} | {_cell(verdict)} | {evidence} |"
+        if with_notebooks:
+            nbs = sorted({ch for ch in CHAPTER_CLAIMS if c in _select(ch, claims)} | {"08"})
+            line += f" {', '.join(nbs)} |"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def checklist(chapter, root=None):
+    """The checklist rows a chapter touches, as a Markdown table read from the committed results.
+
+    Parameters
+    ----------
+    chapter : str
+        The notebook's number (``"01"``, ``"00b"``); ``"08"`` gives every row.
+    root : path, optional
+        The ``results/`` folder (default :func:`results_dir`).
+
+    Returns
+    -------
+    str
+        Markdown: one row per claim (paper table, claim, verdict and our numbers,
+        evidence file), or a one-line note when there is nothing to show.
+
+    Examples
+    --------
+    >>> checklist("99", root="/nonexistent").startswith("No committed")
+    True
+    """
+    claims = findings(root)
+    if chapter == "08":
+        rows = _every_row(claims)
+    else:
+        rows = _select(chapter, claims)
+    rows = [r for r in rows if r.source is None or claims]
+    if not rows:
+        return "No committed findings touch this chapter (no `results/` folder next to the package?)."
+    return _table(rows)
+
+
+def claims_page(root=None):
+    """The book's claims page: every claim → the notebooks that touch it → its evidence file (Markdown)."""
+    claims = findings(root)
+    rows = _every_row(claims)
+    lines = [
+        "# Claims checklist",
+        "",
+        "<!-- generated by book/build.py from neuraluv.notebook.claims_page(); do not edit by hand -->",
+        "",
+        "Every qualitative claim of the paper that a benchmark runner tests is listed below with what our committed",
+        "run found, the chapters that discuss it and the report it was read from. The rows are parsed from the",
+        "\"paper's findings on our data\" blocks of `results/*/table*.md` (`neuraluv.notebook.findings()`), so this",
+        "page, notebook 08 and the checklist at the end of every chapter cannot drift from the numbers. Tables are",
+        "numbered as in the paper's LaTeX (the report file names keep the project's older numbering:",
+        "`table2_compact.md` is the paper's Table 1).",
+        "",
+        "## Claim → notebooks → evidence",
+        "",
+        "Verdicts: **holds**; **does not hold here** (our data disagree; read the detail before quoting the paper's",
+        "number); **not tested** (an optional tool is missing); **not run** (no committed run, or no runner at all).",
+        "",
+        _table(rows, with_notebooks=True, claims=claims),
+        "",
+        "## The paper's tables and where their evidence lives",
+        "",
+        "| Paper table | LaTeX label | Report | Runner |",
+        "|:--|:--|:--|:--|",
+    ]
+    for t in PAPER_TABLES:
+        rep = f"`results/{t['results']}`" if t["results"] else "—"
+        run = f"`neuraluv bench {t['runner']}`" if t["runner"] else "none"
+        lines.append(f"| Table {t['number']}: {t['title']} | `{t['label']}` | {rep} | {run} |")
+    return "\n".join(lines) + "\n"

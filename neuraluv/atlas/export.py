@@ -64,7 +64,7 @@ def read_atlas(path):
 
 
 def plot_routes(res, *, zoom=True, view=None):
-    """Figure 8 of an :class:`~neuraluv.atlas.build.AtlasResult` (see :func:`neuraluv.plot.plot_routes`)."""
+    """The routing figure (the paper's Figure 11) of an :class:`~neuraluv.atlas.build.AtlasResult` (see :func:`neuraluv.plot.plot_routes`)."""
     from neuraluv.plot import plot_routes as _plot
 
     t = res.totals()
