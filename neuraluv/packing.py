@@ -264,8 +264,9 @@ def island_density(uv, V, F):
     >>> round(island_density(2 * V[:, :2], V, F), 12)
     2.0
     """
-    V = np.asarray(V, float)
-    a3 = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum()
+    from neuraluv.meshfix import face_areas
+
+    a3 = float(face_areas(np.asarray(V, float), F).sum())
     a2 = _poly_area(np.asarray(uv, float), F)
     return float(np.sqrt(a2 / a3)) if a3 > 0 and a2 > 0 else float("nan")
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from neuraluv.jacobian import signed_areas_2d
-from neuraluv.meshfix import normalize_unit_box
+from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import distortion_metrics
 from neuraluv.topology import faces_sharing
 
@@ -98,7 +98,7 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     order = np.argsort(lab, kind="stable")
     bounds = np.searchsorted(lab[order], np.arange(n + 1))
     Fok = F[ok_face]
-    a3 = 0.5 * np.linalg.norm(np.cross(V[Fok[:, 1]] - V[Fok[:, 0]], V[Fok[:, 2]] - V[Fok[:, 0]]), axis=1)
+    a3 = face_areas(V, Fok)
     density = np.full(n, np.nan)
     for i in range(n):
         fi = order[bounds[i]:bounds[i + 1]]

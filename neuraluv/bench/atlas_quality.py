@@ -63,14 +63,9 @@ def seam_length(V, F, FUV):
 
 
 def _mirrored(V, F, UV, FUV):
-    from neuraluv.atlas.validate import uv_islands
-    from neuraluv.jacobian import signed_areas_2d
+    from neuraluv.repair.diagnose import layout_facts
 
-    n, lab = uv_islands(FUV)
-    s = signed_areas_2d(UV, FUV)
-    neg = np.bincount(lab, weights=(s < 0) * np.abs(s), minlength=n)
-    tot = np.bincount(lab, weights=np.abs(s), minlength=n)
-    return int((neg > 0.5 * tot).sum())
+    return int(layout_facts(V, F, UV, FUV).mirrored.sum())
 
 
 def xatlas_atlas(V, F, resolution, padding):
@@ -140,8 +135,7 @@ def run(args):
             notes.append(f"- {name}: not run ({why})")
             continue
         vmap, Fx, UVx, tx, xutil = xatlas_atlas(V, F, res_, pad)
-        mx = _measure(V[vmap], Fx, UVx, Fx, res_, pad)
-        mx["seam"] = seam_length(__import__("neuraluv.meshfix", fromlist=["x"]).normalize_unit_box(V)[0], vmap[Fx], Fx)
+        mx = _measure(V, vmap[Fx], UVx, Fx, res_, pad)  # on the uncut mesh, so seams are cut edges
         base = {"mesh": name, "faces": int(len(F))}
         rows.append({**base, "method": "xatlas (own charts + packer)", **mx, "pack_seconds": tx, "xatlas_raster_util": xutil,
                      "fallback_share": 0.0, "charts": mx["islands"]})
