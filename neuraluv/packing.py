@@ -33,6 +33,7 @@ class PackResult:
     padding_texels : float, the smallest gap between two boxes in texels at
         ``resolution`` (inf for a single chart; None without a resolution).
     pages : (c,) int array or None, the texture page (UDIM tile) of each chart.
+    packer : str, the packer that produced it (``"shelf"`` when ``"tight"`` fell back).
     """
 
     uvs: list
@@ -41,6 +42,7 @@ class PackResult:
     utilisation: float
     padding_texels: float | None = None
     pages: np.ndarray | None = None
+    packer: str = ""
 
 
 def _layout(sizes, gap, width):
@@ -344,15 +346,35 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
         return max(tries, key=lambda r: (-int(r.pages.max()), r.utilisation))
     uvs = [np.asarray(u, float) for u in uvs]
     faces = [np.asarray(f, np.int64) for f in faces]
-    sent, sent_f = _proxies(uvs, faces)
+    hull = set()  # charts xatlas did not place rigidly: sent again as their convex hull
+    for _ in range(3):
+        try:
+            return _tight_once(uvs, faces, pad=float(padding), resolution=resolution, brute_force=brute_force,
+                               tolerance=tolerance, texel_density=texel_density, k=int(supersample), hull=hull)
+        except _Misplaced as exc:
+            if exc.charts <= hull:
+                break
+            hull |= exc.charts
+    raise ValueError("tight_pack could not reach the padding; use the shelf packer")
+
+
+class _Misplaced(ValueError):
+    """xatlas did not place some charts as rigid, unmirrored copies (``charts``: their indices)."""
+
+    def __init__(self, charts):
+        super().__init__(f"xatlas did not place {len(charts)} chart(s) rigidly")
+        self.charts = set(charts)
+
+
+def _tight_once(uvs, faces, *, pad, resolution, brute_force, tolerance, texel_density, k, hull):
+    """One :func:`tight_pack` attempt with the given hull proxies; raises ``_Misplaced``."""
+    sent, sent_f = _proxies(uvs, faces, hull)
     off = np.cumsum([0] + [len(u) for u in sent])
     start = shelf_pack(sent, None, padding=2.0, resolution=4096)
     s0 = start.scale
     pts = np.vstack(start.uvs).astype(np.float32)
     allf = np.vstack([f + o for f, o in zip(sent_f, off[:-1])]).astype(np.uint32)
     area = sum(_poly_area(u, f) for u, f in zip(uvs, faces))
-    pad = float(padding)
-    k = int(supersample)
     inner = int(np.floor(resolution - 2 * pad)) * k  # the border keeps the padding too
     for xpad in range(int(np.ceil(k * pad / 2)), int(np.ceil(k * pad)) + 3):  # xatlas dilates both neighbours
         if texel_density is not None:
@@ -381,6 +403,15 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
         packed, pages = _read_placement(at, uvs, sent, off, tex, pad, resolution, k)
         gap = _min_gap(packed, faces, pages)
         if gap * resolution >= pad * (1 - 1e-6):
+            if texel_density is None:  # xatlas keeps a margin of its own: grow the layout up to the padding line
+                lo_c = np.min([u.min(0) for u in packed], axis=0)
+                hi_c = np.max([u.max(0) for u in packed], axis=0)
+                edge = (pad + 0.01) / resolution  # a hundredth of a texel kept for the float32 write
+                grow = float(np.min((1 - 2 * edge) / np.maximum(hi_c - lo_c, 1e-300)))
+                if grow > 1:
+                    packed = [(u - lo_c) * grow + edge for u in packed]
+                    tex *= grow
+                    gap = _min_gap(packed, faces, pages)
             util = sum(_poly_area(u, f) for u, f in zip(packed, faces)) / max(1, int(pages.max()) + 1)
             return PackResult(uvs=packed, scale=tex / resolution, offsets=np.array([u.min(0) for u in packed]),
                               utilisation=util, padding_texels=float(gap * resolution) if np.isfinite(gap) else float("inf"),
@@ -388,22 +419,41 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
     raise ValueError("tight_pack could not reach the padding; use the shelf packer")
 
 
-def _proxies(uvs, faces):
-    """What xatlas is given per chart: the chart, or for a sliver (xatlas does not place
-    charts of no rasterised area) its bounding box thickened to 5% of its length."""
+def _proxies(uvs, faces, hull=()):
+    """What xatlas is given per chart.
+
+    The chart itself; for a sliver (xatlas does not place charts of no rasterised
+    area) its bounding box thickened to 5% of its length; and for a chart with
+    near-degenerate triangles (xatlas drops them and may then place the pieces of the
+    chart apart) or listed in ``hull``, its convex hull.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
     sent, sent_f = [], []
     quad = np.array([[0, 1, 2], [0, 2, 3]])
-    for u, f in zip(uvs, faces):
+    for i, (u, f) in enumerate(zip(uvs, faces)):
         lo, hi = u.min(0), u.max(0)
         ext = hi - lo
         box = float(ext[0] * ext[1])
-        if ext.min() < 0.05 * ext.max() or _poly_area(u, f) < 0.05 * box:
+        area = _poly_area(u, f)
+        tri = np.abs(signed_areas_2d(u, f))
+        if ext.min() < 0.05 * ext.max() or area < 0.05 * box:
             c, h = 0.5 * (lo + hi), np.maximum(ext, 0.05 * ext.max()) / 2
             sent.append(np.array([c - h, [c[0] + h[0], c[1] - h[1]], c + h, [c[0] - h[0], c[1] + h[1]]]))
             sent_f.append(quad)
-        else:
-            sent.append(u)
-            sent_f.append(f)
+            continue
+        if i in hull or tri.min() < 1e-6 * area:
+            try:
+                ring = u[ConvexHull(u).vertices]  # counter-clockwise
+            except QhullError:
+                ring = None
+            if ring is not None and len(ring) >= 3:
+                n = len(ring)
+                sent.append(np.vstack([ring, ring.mean(0)]))
+                sent_f.append(np.column_stack([np.arange(n), (np.arange(n) + 1) % n, np.full(n, n)]))
+                continue
+        sent.append(u)
+        sent_f.append(f)
     return sent, sent_f
 
 
@@ -411,7 +461,9 @@ def _read_placement(at, uvs, sent, off, tex, pad, resolution, k=1):
     """Place each chart (at ``tex`` texels per unit) where xatlas put it; returns (uvs, pages).
 
     The chart's rotation is the least-squares fit (Procrustes) of xatlas's output to
-    the input; a reflection there would mean a mirrored island, which is refused.
+    the input. A chart that xatlas did not place as one rigid copy — a reflection
+    (a mirrored island), pieces placed apart, or vertices left out — raises
+    ``_Misplaced`` listing every such chart.
     """
     vmap, _, out = at[0]
     vmap = np.asarray(vmap, np.int64)
@@ -421,21 +473,25 @@ def _read_placement(at, uvs, sent, off, tex, pad, resolution, k=1):
     owner = np.repeat(np.arange(len(uvs)), np.diff(off))[vmap]
     order = np.argsort(owner, kind="stable")
     bounds = np.searchsorted(owner[order], np.arange(len(uvs) + 1))
-    packed, pages = [], np.zeros(len(uvs), np.int64)
+    packed, pages, bad = [], np.zeros(len(uvs), np.int64), []
     for i, u in enumerate(uvs):
         sel = order[bounds[i]:bounds[i + 1]]
         sel = sel[page[sel] < at.atlas_count]  # xatlas marks vertices it did not place with 0xFFFFFFFF
-        if len(sel) < 2:
-            raise ValueError("xatlas did not place a chart (zero area at its scale)")
+        if len(sel) < 2 or len(np.unique(page[sel])) > 1:
+            bad.append(i)
+            continue
         P = sent[i][vmap[sel] - off[i]]
         Q = q[sel]
         pc, qc = P - P.mean(0), Q - Q.mean(0)
         U, _, Vt = np.linalg.svd(pc.T @ qc)
         R = U @ Vt
-        if np.linalg.det(R) < 0:
-            raise ValueError("xatlas mirrored a chart")
+        if np.linalg.det(R) < 0 or np.abs(pc @ R * tex - qc).max() > 1.0:  # mirrored, or not one rigid copy
+            bad.append(i)
+            continue
         packed.append(((u - P.mean(0)) @ R * tex + Q.mean(0) + pad) / resolution)
-        pages[i] = np.bincount(page[sel]).argmax()
+        pages[i] = page[sel[0]]
+    if bad:
+        raise _Misplaced(bad)
     return packed, pages
 
 

@@ -40,6 +40,40 @@ def test_tight_pack_keeps_padding_orientation_and_beats_shelf():
         assert np.ptp(ratios) < 1e-9 * max(ratios)
 
 
+# An island from generated asset 0 (fast preset) with a triangle of ~1e-7 of its area:
+# xatlas drops such triangles and placed the island's pieces apart, so the tight packer
+# used to fall back to shelves for the whole atlas.
+_SPLIT_U = [[0.118097, 0.001501], [0.097267, 0.036296], [0.073025, -0.072022], [0.072174, -0.072358],
+            [0.094965, -0.010731], [0.05526, -0.035258], [0.071099, -0.069418], [0.072398, 0.023844],
+            [0.03898, 0.002957], [0.021226, 0.041628], [0.007908, 0.074661], [0.04917, -0.038781],
+            [0.011136, -0.060665], [0.021402, -0.00861], [-0.001178, -0.023582], [-0.018889, 0.01484],
+            [-0.018841, 0.014701], [-0.035684, 0.055454], [-0.032998, -0.050411], [-0.018917, 0.014826],
+            [-0.055894, -0.012217], [-0.055531, 0.041125], [-0.056342, 0.030438], [-0.067583, -0.072358],
+            [-0.090177, -0.037356], [-0.092418, 0.047394], [-0.096481, 0.04223]]
+_SPLIT_F = [[0, 1, 4], [5, 6, 2], [5, 2, 4], [6, 12, 3], [6, 5, 11], [4, 1, 7], [6, 11, 12], [8, 5, 4], [7, 8, 4],
+            [5, 8, 11], [11, 8, 13], [14, 12, 11], [9, 8, 7], [13, 14, 11], [13, 8, 15], [8, 9, 15], [14, 13, 16],
+            [13, 15, 16], [14, 20, 18], [10, 17, 9], [16, 20, 14], [16, 15, 19], [9, 17, 15], [18, 20, 23],
+            [19, 15, 21], [23, 20, 24], [19, 21, 22], [21, 25, 22], [22, 25, 26]]
+
+
+def test_tight_pack_places_charts_with_degenerate_triangles_rigidly():
+    uvs, fs = _shapes(8, seed=3)
+    u, f = np.array(_SPLIT_U), np.array(_SPLIT_F)
+    assert np.abs(signed_areas_2d(u, f)).min() < 1e-5 * np.abs(signed_areas_2d(u, f)).sum()
+    uvs.append(u * 0.3 / np.sqrt(np.abs(signed_areas_2d(u, f)).sum()))
+    fs.append(f)
+    t = tight_pack(uvs, fs, padding=3, resolution=256)
+    for p, u in zip(t.uvs, uvs):  # each chart is a scaled rotation of its input (no mirror, no split)
+        a, b = u - u.mean(0), p - p.mean(0)
+        Uu, _, Vt = np.linalg.svd(a.T @ b)
+        R = Uu @ Vt
+        assert np.linalg.det(R) > 0
+        assert np.abs(a @ R * t.scale - b).max() < 1e-9
+    # the layout is grown up to the padding line on at least one axis
+    UV = np.vstack(t.uvs)
+    assert np.isclose(UV.min(), 3 / 256, atol=1e-3) and 1 - 3 / 256 - 1e-3 < UV.max() <= 1 - 3 / 256
+
+
 def test_tight_pack_fixed_density_spills_to_pages():
     uvs, fs = _shapes(20)
     one = tight_pack(uvs, fs, padding=2, resolution=128)

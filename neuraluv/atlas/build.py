@@ -238,6 +238,7 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
             if texel_density is not None:
                 raise NeuralUVError(str(exc)) from None
             packed = shelf_pack(uvs, fl, padding=padding, resolution=resolution)  # the shelf packer always fits
+            packed.packer = "shelf (tight failed: " + str(exc) + ")"
     elif packer == "shelf":
         packed = shelf_pack(uvs, fl, padding=padding, resolution=resolution)
     elif packer == "xatlas":
@@ -270,7 +271,7 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
 
 def _pack_info(packed, packer, padding, resolution, texel_density, orient):
     pages = 1 if packed.pages is None else int(packed.pages.max()) + 1
-    return {"packer": packer, "resolution": resolution, "padding": padding, "orient": orient,
+    return {"packer": packed.packer or packer, "resolution": resolution, "padding": padding, "orient": orient,
             "texel_density": texel_density, "pages": pages, "utilisation": packed.utilisation,
             "pack_scale": packed.scale}
 
