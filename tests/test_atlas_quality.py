@@ -124,3 +124,51 @@ def test_atlas_has_one_texel_density_and_udim_tiles_validate():
 def test_island_density_is_scale_of_the_map():
     V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]])
     assert island_density(3 * V[:, :2], V, np.array([[0, 1, 2]])) == pytest.approx(3.0)
+
+
+def _three_copies():
+    from scipy.spatial.transform import Rotation
+
+    V, F = sphere(1)
+    R = Rotation.from_euler("xyz", [0.3, 1.0, -0.5]).as_matrix()
+    return np.vstack([V, V @ R.T + [3, 0.5, 0], V + [0, 3, 0]]), np.vstack([F, F + len(V), F + 2 * len(V)]), len(F)
+
+
+def test_stacking_identical_parts_shares_their_place_and_stays_valid():
+    V, F, m = _three_copies()
+    plain = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu")
+    res = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu", stack=True)
+    assert plain.validation["stacked_islands"] == 0 and res.valid
+    k = res.validation["islands"] // 3
+    assert res.validation["stacked_islands"] == 2 * k == res.info["stacked_islands"]
+    assert res.validation["overlapping_pairs"] == 0 and res.totals()["flips"] == 0
+    # the copies carry exactly the first copy's UVs, face for face
+    for c in (1, 2):
+        assert np.array_equal(res.UV[res.FUV[c * m:(c + 1) * m]], res.UV[res.FUV[:m]])
+    # without stack=True the same layout is three overlaps per place
+    val = validate_atlas(res.V, res.F, res.UV, res.FUV, padding=2, resolution=256)
+    assert val["overlapping_pairs"] == 3 * k and not val["valid"]
+
+
+def test_stacked_validation_still_catches_partial_overlaps():
+    V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]])
+    F = np.array([[0, 1, 2], [0, 1, 2]])
+    UV = np.array([[.1, .1], [.4, .1], [.1, .4], [.2, .2], [.5, .2], [.2, .5]])
+    on_top = np.array([[.1, .1], [.4, .1], [.1, .4]] * 2)
+    FUV = np.array([[0, 1, 2], [3, 4, 5]])
+    assert validate_atlas(V, F, UV, FUV, stacked=True)["overlapping_pairs"] == 1
+    r = validate_atlas(V, F, on_top, FUV, stacked=True)
+    assert r["overlapping_pairs"] == 0 and r["stacked_islands"] == 1 and r["valid"]
+
+
+def test_cli_atlas_stack_reads_back_valid(tmp_path, capsys):
+    from conftest import write_mesh
+
+    from neuraluv.cli import main
+
+    V, F, _ = _three_copies()
+    write_mesh(tmp_path / "in.obj", V, F)
+    rc = main(["atlas", str(tmp_path / "in.obj"), "-o", str(tmp_path / "out.obj"), "--preset", "test", "--stack",
+               "--resolution", "256", "--padding", "2", "--quiet", "--device", "cpu"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "islands stacked on identical ones" in out, out

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from neuraluv import __version__
-from neuraluv.atlas.candidates import chart_candidates, merge_small_charts
+from neuraluv.atlas.candidates import chart_candidates, congruent_components, merge_small_charts
 from neuraluv.atlas.prepare import prepare_mesh
 from neuraluv.atlas.routing import ROUTES, route_charts
 from neuraluv.atlas.validate import validate_atlas
@@ -23,7 +23,7 @@ from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device, torch_threads
 from neuraluv.topology import topology_scan
 
-__all__ = ["AtlasResult", "PACKERS", "build_atlas", "repack"]
+__all__ = ["AtlasResult", "PACKERS", "build_atlas", "repack", "stack_groups"]
 
 
 @dataclass
@@ -111,7 +111,7 @@ class AtlasResult:
 
 def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="tight", seed=0, device="auto",
                 max_cost=4.0, merge=True, merge_faces=8, merge_curvature=0.2, texel_density=None, orient="compact",
-                time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
+                stack=False, time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
     """Build a validated UV atlas of a whole (possibly messy) mesh.
 
     Parameters
@@ -143,6 +143,13 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         one texture go to further UDIM tiles (tile ``k`` at ``u + k % 10, v + k // 10``).
     orient : ``"compact"`` (each island turned to its smallest bounding box, lying wide)
         or ``"upright"`` (each island's main axis along U).
+    stack : bool
+        Give identical parts one shared place in the texture. Copies of a component
+        (same triangulation in the same face order, moved rigidly: duplicated or
+        instanced objects, :func:`~neuraluv.atlas.candidates.congruent_components`)
+        are not charted or solved but take the original's charts; identical islands
+        (:func:`stack_groups`) are packed once and the copies lie exactly on the first
+        one. Validation counts them as ``stacked_islands``, not as overlaps.
     min_height : float
         Sliver threshold of :func:`prepare_mesh` (relative to the diagonal).
     time_budget : float, optional
@@ -184,16 +191,24 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
     n_cand = len(cands)
     if merge:
         cands = merge_small_charts(Vr, Fr, cands, max_faces=merge_faces, max_curvature=merge_curvature)
+    copies = congruent_components(Vr, Fr) if stack else []
+    if copies:  # copies of a component are not charted or solved: they take the original's charts
+        is_copy = np.zeros(len(Fr), bool)
+        for _, fc, _, _ in copies:
+            is_copy[fc] = True
+        cands = [c for c in cands if not is_copy[c[0]].any()]
     t_cand = time.perf_counter()
     deadline = None if time_budget is None else t0 + float(time_budget)
     with torch_threads(threads):
         charts = route_charts(Vr, Fr, cands, cfg, seed=seed, device=device, deadline=deadline, progress=progress)
+    charts += _copied_charts(charts, copies, len(Fr), len(Vr))
     t_route = time.perf_counter()
     Vout = Vin[vmap]
     UV, FUV, face_chart, face_route, packed = _pack(charts, Vout, len(Fr), packer, padding, resolution,
-                                                    texel_density=texel_density, orient=orient)
+                                                    texel_density=texel_density, orient=orient, stack=stack)
     t_pack = time.perf_counter()
-    validation = validate_atlas(Vout, Fr, UV, FUV, padding=padding, resolution=resolution, tiles=packed.pages is not None)
+    validation = validate_atlas(Vout, Fr, UV, FUV, padding=padding, resolution=resolution, tiles=packed.pages is not None,
+                                stacked=stack)
     info = {
         "input_vertices": int(len(Vin)), "input_faces": int(len(F)),
         "repaired_vertices": int(len(Vr)), "repaired_faces": int(len(Fr)),
@@ -203,7 +218,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         "max_cost": max_cost, "time_budget": time_budget,
         "candidates": {"xatlas_and_splits": n_cand, "after_merge": len(cands), "merge": bool(merge),
                        "merge_faces": merge_faces, "merge_curvature": merge_curvature},
-        **_pack_info(packed, packer, padding, resolution, texel_density, orient),
+        **_pack_info(packed, packer, padding, resolution, texel_density, orient, stack),
         "timings": {"repair": t_rep - t0, "candidates": t_cand - t_rep, "routing": t_route - t_cand,
                     "packing": t_pack - t_route, "validation": time.perf_counter() - t_pack},
         "time": time.perf_counter() - t0, "device": str(resolve_device(device)), "seed": seed,
@@ -212,13 +227,80 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
                        validation=validation, info=info)
 
 
-def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orient="compact"):
+def _copied_charts(charts, copies, m, n):
+    """The charts of every copy component: the original's charts, faces and vertices renamed."""
+    from dataclasses import replace
+
+    out = []
+    for rf, fc, rv, vc in copies:
+        fmap = np.full(m, -1, np.int64)
+        fmap[rf] = fc
+        vmap = np.full(n, -1, np.int64)
+        vmap[rv] = vc
+        for i, c in enumerate(charts):
+            if len(c.faces) and (fmap[c.faces] >= 0).all():
+                out.append(replace(c, faces=fmap[c.faces], reason=(c.reason + "; " if c.reason else "") + f"copy of chart {i}",
+                                   islands=[(fmap[f], vmap[v], Fl, uv) for f, v, Fl, uv in c.islands], time=0.0))
+    return out
+
+
+def stack_groups(V, islands, rtol=1e-4):
+    """Groups of identical islands: same local triangulation and 3D vertices congruent by a proper rigid motion.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    islands : list of ``(faces, vertex_ids, local_faces, uv)`` tuples (as in ``AtlasChart.islands``)
+    rtol : float
+        Largest vertex misfit after the best rotation, relative to the island's size.
+
+    Returns
+    -------
+    rep : (k,) int array, for every island the index of the island whose place it takes
+        (itself when it is not a copy).
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [5, 0, 0], [5, 1, 0], [4, 0, 0]])
+    >>> f = np.array([[0, 1, 2]])
+    >>> stack_groups(V, [(None, np.array([0, 1, 2]), f, None), (None, np.array([3, 4, 5]), f, None)]).tolist()
+    [0, 0]
+    """
+    V = np.asarray(V, float)
+    rep = np.arange(len(islands))
+    keys = {}
+    for i, (_, vi, Fl, _) in enumerate(islands):
+        keys.setdefault((len(vi), len(Fl), np.asarray(Fl).tobytes()), []).append(i)
+    for group in keys.values():
+        for a_pos, i in enumerate(group):
+            if rep[i] != i:
+                continue
+            A = V[islands[i][1]]
+            A = A - A.mean(0)
+            size = float(np.sqrt((A ** 2).sum(1).max())) or 1.0
+            for j in group[a_pos + 1:]:
+                if rep[j] != j:
+                    continue
+                B = V[islands[j][1]]
+                B = B - B.mean(0)
+                U, _, Vt = np.linalg.svd(A.T @ B)
+                R = U @ Vt
+                if np.linalg.det(R) > 0 and np.abs(A @ R - B).max() <= rtol * size:
+                    rep[j] = i
+    return rep
+
+
+def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orient="compact", stack=False):
     """Pack the charts' islands at one texel density and assemble per-corner UVs for ``m`` faces.
 
     Every island is first scaled so its UV area equals its 3D area (one texel density
     everywhere: the checkerboard has one cell size), then turned (``orient``) and packed.
+    With ``stack``, copies of an island (:func:`stack_groups`) are not packed: they take
+    their original's packed UVs, vertex for vertex.
     """
     islands = [isl for c in charts for isl in c.islands]
+    rep = stack_groups(V, islands) if stack else np.arange(len(islands))
+    own = np.flatnonzero(rep == np.arange(len(islands)))
     V, _, unit = normalize_unit_box(V)  # densities in unit-box lengths: no overflow for huge inputs
     uvs = []
     for fidx, vi, Fl, uv in islands:
@@ -226,6 +308,7 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
         u = uv / d if np.isfinite(d) and d > 0 else uv
         uvs.append(upright(u, V[vi]) if orient == "upright" else rotate_to_min_box(u))
     fl = [isl[2] for isl in islands]
+    uvs, fl = [uvs[i] for i in own], [fl[i] for i in own]
     if orient not in ("compact", "upright"):
         raise NeuralUVError(f"unknown orientation {orient!r}: use 'compact' or 'upright'")
     if texel_density is not None and packer != "tight":
@@ -245,15 +328,17 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
         packed = xatlas_pack(uvs, fl, padding=padding, resolution=resolution)
     else:
         raise NeuralUVError(f"unknown packer {packer!r}: use one of {', '.join(PACKERS)}")
+    where = np.searchsorted(own, rep)  # island -> its packed original
     pages = packed.pages
     multi = pages is not None and int(pages.max()) > 0
     if not multi:
         packed.pages = None
+    packed.stacked = int(len(islands) - len(own))
     FUV = -np.ones((m, 3), np.int64)
     UVs, off = [], 0
-    for k, (isl, uv) in enumerate(zip(islands, packed.uvs)):
+    for isl, k in zip(islands, where):
         FUV[isl[0]] = isl[2] + off
-        uv = np.clip(uv, 0.0, 1.0)
+        uv = np.clip(packed.uvs[k], 0.0, 1.0)
         if multi:  # UDIM tile k: u + k % 10, v + k // 10
             uv = uv + [pages[k] % 10, pages[k] // 10]
         UVs.append(uv)
@@ -269,9 +354,10 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
     return UV, FUV, face_chart, face_route, packed
 
 
-def _pack_info(packed, packer, padding, resolution, texel_density, orient):
+def _pack_info(packed, packer, padding, resolution, texel_density, orient, stack=False):
     pages = 1 if packed.pages is None else int(packed.pages.max()) + 1
     return {"packer": packed.packer or packer, "resolution": resolution, "padding": padding, "orient": orient,
+            "stack": bool(stack), "stacked_islands": int(getattr(packed, "stacked", 0)),
             "texel_density": texel_density, "pages": pages, "utilisation": packed.utilisation,
             "pack_scale": packed.scale}
 
@@ -301,8 +387,10 @@ def repack(res, packer="shelf", *, padding=None, resolution=None):
     padding = res.info["padding"] if padding is None else padding
     resolution = res.info["resolution"] if resolution is None else resolution
     orient = res.info.get("orient", "compact")
-    UV, FUV, fc, fr, packed = _pack(res.charts, res.V, len(res.F), packer, padding, resolution, orient=orient)
-    info = dict(res.info, **_pack_info(packed, packer, padding, resolution, None, orient))
+    stack = res.info.get("stack", False)
+    UV, FUV, fc, fr, packed = _pack(res.charts, res.V, len(res.F), packer, padding, resolution, orient=orient,
+                                    stack=stack)
+    info = dict(res.info, **_pack_info(packed, packer, padding, resolution, None, orient, stack))
     return replace(res, UV=UV, FUV=FUV, face_chart=fc, face_route=fr, info=info,
                    validation=validate_atlas(res.V, res.F, UV, FUV, padding=padding, resolution=resolution,
-                                             tiles=packed.pages is not None))
+                                             tiles=packed.pages is not None, stacked=stack))

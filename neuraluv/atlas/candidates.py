@@ -6,7 +6,8 @@ import numpy as np
 from neuraluv.meshfix import normalize_unit_box
 from neuraluv.topology import components, face_components, is_disk_like, submesh
 
-__all__ = ["seam_charts", "bisect_faces", "split_into_disks", "chart_candidates", "merge_small_charts"]
+__all__ = ["seam_charts", "bisect_faces", "split_into_disks", "chart_candidates", "merge_small_charts",
+           "congruent_components"]
 
 
 def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
@@ -324,3 +325,56 @@ def _flattens(V, F):
     if uv.shape != (len(V), 2) or not np.isfinite(uv).all():
         return False
     return distortion_metrics(V, F, uv)["flips"] == 0 and boundary_is_simple(uv, F)
+
+
+def congruent_components(V, F, *, rtol=1e-4):
+    """Copies of a mesh component: the same triangulation, in the same face order, moved rigidly.
+
+    Duplicated or instanced objects (bolts, wheels, leaves) are such copies. Each
+    copy is matched face for face (and vertex for vertex, in order of first use) to
+    the first component it copies; its 3D vertices must fit the original's after the
+    best proper rotation and translation (:func:`~neuraluv.atlas.build.stack_groups`
+    does the same test per island).
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    rtol : float
+        Largest vertex misfit relative to the component's radius.
+
+    Returns
+    -------
+    list of ``(rep_faces, copy_faces, rep_vertices, copy_vertices)``
+        One entry per copy: equal-length index arrays; ``rep_faces[i]`` corresponds
+        to ``copy_faces[i]`` and ``rep_vertices[j]`` to ``copy_vertices[j]``.
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [5, 0, 0], [5, 1, 0], [4, 0, 0]])
+    >>> [(r.tolist(), c.tolist()) for r, c, _, _ in congruent_components(V, np.array([[0, 1, 2], [3, 4, 5]]))]
+    [([0], [1])]
+    """
+    V = np.asarray(V, float)
+    F = np.asarray(F, np.int64)
+    n, lab = face_components(F)
+    order = np.argsort(lab, kind="stable")
+    bounds = np.searchsorted(lab[order], np.arange(n + 1))
+    groups, out = {}, []
+    for c in range(n):
+        fc = order[bounds[c]:bounds[c + 1]]
+        verts, first = np.unique(F[fc].ravel(), return_index=True)
+        vs = verts[np.argsort(first)]  # vertices in order of first use
+        local = np.argsort(np.argsort(first))[np.searchsorted(verts, F[fc])]  # relabelled in that order
+        key = (len(fc), len(vs), local.tobytes())
+        P = V[vs] - V[vs].mean(0)
+        size = float(np.sqrt((P ** 2).sum(1).max())) or 1.0
+        for rf, rv, RP in groups.get(key, []):
+            U, _, Vt = np.linalg.svd(RP.T @ P)
+            R = U @ Vt
+            if np.linalg.det(R) > 0 and np.abs(RP @ R - P).max() <= rtol * size:
+                out.append((rf, fc, rv, vs))
+                break
+        else:
+            groups.setdefault(key, []).append((fc, vs, P))
+    return out

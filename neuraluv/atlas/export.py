@@ -127,7 +127,7 @@ def atlas_file(inp, out, *, report=None, renders=None, **kw):
     res = build_atlas(V, F, **kw)
     write_atlas(out, res.V, res.F, res.UV, res.FUV)
     back = validate_atlas(*read_atlas(out), padding=res.info["padding"], resolution=res.info["resolution"],
-                          tiles=res.info.get("pages", 1) > 1)
+                          tiles=res.info.get("pages", 1) > 1, stacked=res.info.get("stack", False))
     rep = res.report()
     rep["input"] = str(inp)
     rep["output"] = str(out)

@@ -25,7 +25,8 @@ def uv_islands(FUV):
     return faces_sharing(FUV.reshape(-1), np.repeat(np.arange(len(FUV)), 3), len(FUV))
 
 
-def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_padding=True, tiles=False):
+def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_padding=True, tiles=False,
+                   stacked=False):
     """Check a packed atlas exactly: flips, overlaps, bounds, padding.
 
     Parameters
@@ -41,6 +42,11 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     tiles : bool
         UDIM layout: every face must lie inside one unit tile ``[i, i+1] × [j, j+1]``
         (``i, j ≥ 0``) instead of inside ``[0,1]²``.
+    stacked : bool
+        Islands stacked on purpose (``build_atlas(stack=True)``): two islands covering
+        exactly the same region (symmetric difference below 1e-9 of their area) are
+        counted in ``stacked_islands`` and are neither an overlap nor a padding
+        violation. Partial overlaps still are.
 
     Returns
     -------
@@ -115,9 +121,13 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     ov_pairs, ov_area, pad_viol = 0, 0.0, 0
     a, b = tree.query(polys, predicate="intersects")
     keep = a < b
+    on_top = set()  # (i, j) pairs stacked on purpose
     for i, j in zip(a[keep], b[keep]):
         ar = polys[i].intersection(polys[j]).area
         if ar > 0:
+            if stacked and polys[i].symmetric_difference(polys[j]).area <= 1e-9 * max(polys[i].area, 1e-300):
+                on_top.add((i, j))
+                continue
             ov_pairs += 1
             ov_area += ar
     min_gap = float("inf")
@@ -126,6 +136,8 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
         a, b = tree.query(polys, predicate="dwithin", distance=probe * 4)
         keep = a < b
         for i, j in zip(a[keep], b[keep]):
+            if (i, j) in on_top:
+                continue
             d = polys[i].distance(polys[j])
             min_gap = min(min_gap, d)
             if pad > 0 and d < pad * (1 - 1e-6):
@@ -141,6 +153,7 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
         "self_overlapping_islands": self_ov, "padding_violations": pad_viol, "padding_texels": padding,
         "resolution": resolution, "min_gap_texels": gap_tex, "uv_in_unit_square": in_box, "valid": bool(valid),
         "density_spread": _spread(density),
+        "stacked_islands": len({int(j) for _, j in on_top}),
     }
 
 

@@ -50,6 +50,9 @@ def _packing_options(a):
                    help="compact (default: each island turned to its smallest box) or upright (its main axis along U)")
     a.add_argument("--no-merge", action="store_true",
                    help="keep xatlas's small charts instead of merging them into neighbours (more, smaller islands)")
+    a.add_argument("--stack", action="store_true",
+                   help="identical islands (same triangulation, congruent in 3D, e.g. instanced parts) share one place "
+                        "in the texture; validation counts them as stacked, not as overlaps")
 
 
 def cmd_atlas(args):
@@ -65,7 +68,7 @@ def cmd_atlas(args):
     res, rep = atlas_file(args.input, out, report=args.report, renders=args.renders, preset=args.preset,
                           resolution=args.resolution, padding=args.padding, packer=args.packer, seed=args.seed,
                           device=args.device, **_overrides(args), texel_density=args.texel_density,
-                          orient=args.orient, merge=not args.no_merge,
+                          orient=args.orient, merge=not args.no_merge, stack=args.stack,
                           time_budget=args.time_budget or None, threads=args.threads, progress=not args.quiet,
                           min_height=args.min_height)
     t = res.totals()
@@ -82,7 +85,9 @@ def cmd_atlas(args):
           f"coverage {_pct(b['covered_faces'] / max(b['faces'], 1))}, flips {b['flips']}, overlaps {b['overlapping_pairs']}, "
           f"padding violations {b['padding_violations']}; utilisation {_pct(t['utilisation'])}"
           + (f" over {res.info['pages']} UDIM tiles" if res.info.get("pages", 1) > 1 else "")
-          + f", texel-density spread {_pct(b['density_spread'] or 0.0)}; {res.info['time']:.1f}s"
+          + f", texel-density spread {_pct(b['density_spread'] or 0.0)}"
+          + (f", {b['stacked_islands']} islands stacked on identical ones" if args.stack else "")
+          + f"; {res.info['time']:.1f}s"
           + (f"; input repaired: {', '.join(fixed)}" if fixed else ""))
     if not rep["ok"]:
         print("neuraluv: atlas failed validation after reading it back (see the report)", file=sys.stderr)
