@@ -15,7 +15,7 @@ export PYVISTA_OFF_SCREEN ?= true
 # OpenBLAS' own threads fight torch's on 2 cores (a 256x256 eigh: 1 s vs 6 ms)
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: install demo test test-fast test-notebooks book book-check data lab blender-env baselines bench-quick acceptance atlas-acceptance clean
+.PHONY: install demo test test-fast test-notebooks book book-check data lab blender-env baselines bench-quick reproduce reproduce-quick acceptance atlas-acceptance clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -73,6 +73,33 @@ baselines:
 
 bench-quick: install data
 	$(BIN)/neuraluv bench compact --quick -o .cache/bench-quick
+
+# Every table of the paper in quick mode (tiny budgets, small inputs; minutes): checks that each
+# runner works end to end; writes to .cache/reproduce-quick, never to results/.
+QUICK_OUT ?= .cache/reproduce-quick
+REPRODUCE_BENCHES := compact failure-modes ablation ntk charts pareto speed atlas-quality repair baselines
+reproduce-quick: install data
+	@for b in $(REPRODUCE_BENCHES); do \
+	  echo "== neuraluv bench $$b --quick"; \
+	  $(BIN)/neuraluv bench $$b --quick --quiet -o $(QUICK_OUT)/$$b || exit $$?; done
+
+# Every table at the paper's settings into results/ (long: days on a 2-core CPU, hours on a GPU;
+# resumable: re-running continues from each folder's rows.jsonl). Run from a clean commit:
+# every report records the commit and refuses none, but a "+dirty" commit is not a result.
+# External baselines: `make baselines` and `make blender-env` first, or their rows say why not.
+RESULTS ?= results
+reproduce: install data
+	@git diff --quiet HEAD -- neuraluv || echo "warning: neuraluv/ has uncommitted changes: the reports will record +dirty"
+	$(BIN)/neuraluv bench compact --preset paper --resume -o $(RESULTS)/compact
+	$(BIN)/neuraluv bench failure-modes --preset paper --resume -o $(RESULTS)/failure-modes
+	$(BIN)/neuraluv bench ablation --preset paper --seeds 0 1 2 --resume -o $(RESULTS)/ablation
+	$(BIN)/neuraluv bench ntk --preset paper --trajectory --resume -o $(RESULTS)/ntk
+	$(BIN)/neuraluv bench charts --preset paper --iterations 1000 --resume -o $(RESULTS)/charts
+	$(BIN)/neuraluv bench pareto --preset paper --budgets 500 750 1000 5000 --sets compact xatlas --resume -o $(RESULTS)/pareto
+	$(BIN)/neuraluv bench baselines --optcuts-sample 10 -o $(RESULTS)/baselines
+	$(BIN)/neuraluv bench atlas-quality --threads 1 -o $(RESULTS)/atlas
+	$(BIN)/neuraluv bench repair -o $(RESULTS)/repair
+	$(BIN)/neuraluv bench speed -o $(RESULTS)/speed
 
 # Issue-2 acceptance table: paper and fast presets vs SLIM-1k on Camel, Hand, Bob.
 acceptance: install data

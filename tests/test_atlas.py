@@ -181,6 +181,7 @@ def test_renders_route_figure(tmp_path):
     res = build_atlas(V, F, **FAST)
     assert (res.face_route == 1).any() and len(np.unique(res.face_route)) >= 2
     paths = save_renders(res, tmp_path)
+    assert [p.stem for p in paths] == ["atlas_checkerboard", "atlas_routes", "atlas_density"]
     assert all(p.exists() and p.stat().st_size > 1000 for p in paths)
 
 

@@ -156,6 +156,17 @@ def test_ablation_quick_reports_invalid_attempt_and_fallback(tmp_path):
     assert row["status"] == "fallback" and row["flips"] == 0  # the map actually returned is valid
     assert "[50.60%]" in res.markdown and "[invalid]" in res.markdown and "1/1" in res.markdown
 
+def test_ablation_seeds_report_mean_and_spread_over_seeds(tmp_path):
+    from neuraluv.bench.ablation import bench
+
+    res = bench(variants=["full", "k=0"], quick=True, seeds=[0, 1], output=tmp_path, show_progress=False)
+    assert sorted({(r["variant"], r["seed"]) for r in res.rows}) == [("full", 0), ("full", 1), ("k=0", 0), ("k=0", 1)]
+    s = {x["variant"]: x for x in res.extra["summary"]}["full"]
+    per_seed = [r["neural_esd"] for r in res.rows if r["variant"] == "full"]
+    assert np.isclose(s["esd"], np.mean(per_seed)) and np.isclose(s["esd_sd"], np.std(per_seed, ddof=1))
+    assert "seeds 0, 1" in res.markdown and " ± " in res.markdown
+
+
 
 def test_charts_quick_strata_and_denominators(tmp_path):
     from neuraluv.bench.charts import bench, select_charts, stratum

@@ -72,8 +72,36 @@ def plot_routes(res, *, zoom=True, view=None):
                  view=view)
 
 
+def plot_density(V, F, UV, FUV, *, title=None, view="plane", axes=None):
+    """The texel-density figure of a layout: each face coloured by its island's density over the median island.
+
+    White is the median density; blue islands get fewer texels per unit length
+    (blurrier), red ones more. One texel density (``build_atlas``) is white
+    everywhere; xatlas's own atlas is not.
+
+    Parameters
+    ----------
+    V, F, UV, FUV : the mesh and its layout
+    title : str, optional
+    view : camera (see :func:`neuraluv.plot.render_surface`)
+    axes : two matplotlib Axes, optional
+
+    Returns
+    -------
+    fig : matplotlib Figure
+    """
+    from neuraluv.atlas.validate import face_texel_density
+    from neuraluv.plot import plot_surface_and_uv
+
+    d = face_texel_density(V, F, UV, FUV)
+    spread = float(np.nanmax(d) / np.nanmin(d) - 1) if np.isfinite(d).any() else float("nan")
+    return plot_surface_and_uv(V, F, UV, d, FUV=FUV, cmap="coolwarm", clim=(0.5, 1.5), view=view, axes=axes,
+                               label="texel density / median island",
+                               title=(title + "; " if title else "") + f"density spread {100 * spread:.2g}%")
+
+
 def save_renders(res, outdir, stem="atlas"):
-    """Write the checkerboard transfer and the route figure as PNGs; returns the paths."""
+    """Write the checkerboard transfer, the route figure and the texel-density figure as PNGs; returns the paths."""
     import matplotlib.pyplot as plt
 
     from neuraluv.plot import plot_checkerboard_transfer
@@ -82,7 +110,8 @@ def save_renders(res, outdir, stem="atlas"):
     outdir.mkdir(parents=True, exist_ok=True)
     paths = []
     for name, make in (("checkerboard", lambda: plot_checkerboard_transfer(res.V, res.F, res.UV, res.FUV)),
-                       ("routes", lambda: plot_routes(res))):
+                       ("routes", lambda: plot_routes(res)),
+                       ("density", lambda: plot_density(res.V, res.F, res.UV, res.FUV))):
         fig = make()
         p = outdir / f"{stem}_{name}.png"
         with atomic_write(p, "wb") as fh:

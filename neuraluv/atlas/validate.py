@@ -10,7 +10,7 @@ from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import distortion_metrics
 from neuraluv.topology import faces_sharing
 
-__all__ = ["uv_islands", "triangles_union", "self_overlap", "validate_atlas"]
+__all__ = ["uv_islands", "triangles_union", "self_overlap", "validate_atlas", "face_texel_density"]
 
 
 def uv_islands(FUV):
@@ -103,14 +103,9 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
     polys, self_ov = [], 0
     order = np.argsort(lab, kind="stable")
     bounds = np.searchsorted(lab[order], np.arange(n + 1))
-    Fok = F[ok_face]
-    a3 = face_areas(V, Fok)
-    density = np.full(n, np.nan)
+    density = _island_density(V, F[ok_face], UV, FUV, lab, n)
     for i in range(n):
         fi = order[bounds[i]:bounds[i + 1]]
-        A3 = a3[fi].sum()
-        if A3 > 0:
-            density[i] = np.sqrt(np.abs(signed_areas_2d(UV, FUV[fi])).sum() / A3)
         P, total = triangles_union(UV, FUV[fi])
         if total > 0 and (total - P.area) / total > 1e-7:
             self_ov += 1
@@ -155,6 +150,46 @@ def validate_atlas(V, F, UV, FUV=None, *, padding=0.0, resolution=None, check_pa
         "density_spread": _spread(density),
         "stacked_islands": len({int(j) for _, j in on_top}),
     }
+
+
+def _island_density(V, F, UV, FUV, lab, n):
+    """Per island ``sqrt(UV area / 3D area)`` (NaN for islands of no 3D area)."""
+    a3 = np.bincount(lab, face_areas(V, F), minlength=n)
+    a2 = np.bincount(lab, np.abs(signed_areas_2d(UV, FUV)), minlength=n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a3 > 0, np.sqrt(a2 / np.where(a3 > 0, a3, 1)), np.nan)
+
+
+def face_texel_density(V, F, UV, FUV=None):
+    """Texel density of each face's island, relative to the median island: 1 everywhere for one density.
+
+    The density of an island is ``sqrt(UV area / 3D area)`` (UV units per unit length;
+    times the resolution: texels per unit length); :func:`validate_atlas` reports its
+    spread across islands as ``density_spread``.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array, optional (default ``F``)
+
+    Returns
+    -------
+    (m,) float array
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2], [0, 1, 2]])
+    >>> UV = np.array([[0, 0], [.2, 0], [0, .2], [.5, .5], [.9, .5], [.5, .9]])
+    >>> face_texel_density(V, F, UV, np.array([[0, 1, 2], [3, 4, 5]])).round(3).tolist()
+    [0.667, 1.333]
+    """
+    F = np.asarray(F, np.int64)
+    FUV = F if FUV is None else np.asarray(FUV, np.int64)
+    n, lab = uv_islands(FUV)
+    d = _island_density(np.asarray(V, float), F, np.asarray(UV, float), FUV, lab, n)
+    return d[lab] / np.nanmedian(d)
 
 
 def _spread(density):
