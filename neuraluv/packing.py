@@ -291,7 +291,7 @@ def _xatlas_place(start, allf, tpu, pad, resolution, brute_force):
 
 
 def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", tolerance=0.005, texel_density=None,
-               supersample=1):
+               supersample=1, trials=4):
     """Pack charts by their shapes at the largest common scale that fits the texture, with exact padding.
 
     xatlas's packer places each chart's rasterised shape (not its bounding box);
@@ -320,6 +320,11 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
     texel_density : float, optional
         Texels per UV unit: a fixed density instead of the search. The charts may
         then need several pages: ``PackResult.pages`` says which page each chart is on.
+    trials : int
+        Packings tried with the charts turned by quarter turns (as given, all turned
+        90°, then seeded random quarter turns per chart); the fullest is kept. The
+        utilisation of one packing varies by several percent with the charts'
+        orientations (Cow: 0.45–0.59 over 12 trials), so a few trials pay off.
 
     Returns
     -------
@@ -327,8 +332,9 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
 
     Notes
     -----
-    Charts are translated and uniformly scaled only: xatlas's own 90° "rotation"
-    transposes a chart (a mirror image), so it is switched off.
+    Charts are turned by quarter turns (``trials``), translated and uniformly scaled
+    only: xatlas's own 90° "rotation" transposes a chart (a mirror image), so it is
+    switched off. The output is deterministic (the trials' turns are seeded).
 
     Examples
     --------
@@ -337,9 +343,27 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
     >>> res.padding_texels >= 4, round(res.utilisation, 2) > 0.5
     (True, True)
     """
+    if trials > 1:  # quarter turns (proper rotations, never mirrors) change how the shapes nest
+        kw = dict(padding=padding, resolution=resolution, brute_force=brute_force, tolerance=tolerance,
+                  texel_density=texel_density, supersample=supersample, trials=1)
+        uvs = [np.asarray(u, float) for u in uvs]
+        best, err = None, None
+        for t in range(int(trials)):
+            turns = (np.zeros(len(uvs), int) if t == 0 else np.ones(len(uvs), int) if t == 1
+                     else np.random.default_rng(t).integers(0, 4, len(uvs)))
+            try:
+                r = tight_pack([u @ _QUARTER[q] for u, q in zip(uvs, turns)], faces, **kw)
+            except ValueError as exc:
+                err = exc
+                continue
+            if best is None or (-int(r.pages.max()), r.utilisation) > (-int(best.pages.max()), best.utilisation):
+                best = r
+        if best is None:
+            raise err
+        return best
     if brute_force == "auto":
         kw = dict(padding=padding, resolution=resolution, tolerance=tolerance, texel_density=texel_density,
-                  supersample=supersample)
+                  supersample=supersample, trials=1)
         tries = [tight_pack(uvs, faces, brute_force=False, **kw)]
         if len(uvs) <= 600:
             tries.append(tight_pack(uvs, faces, brute_force=True, **kw))
@@ -364,6 +388,9 @@ class _Misplaced(ValueError):
     def __init__(self, charts):
         super().__init__(f"xatlas did not place {len(charts)} chart(s) rigidly")
         self.charts = set(charts)
+
+
+_QUARTER = [np.eye(2), np.array([[0.0, 1.0], [-1.0, 0.0]]), -np.eye(2), np.array([[0.0, -1.0], [1.0, 0.0]])]
 
 
 def _tight_once(uvs, faces, *, pad, resolution, brute_force, tolerance, texel_density, k, hull):

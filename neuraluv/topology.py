@@ -175,6 +175,23 @@ def boundary_loop(F, *, oriented=False):
     return bnd
 
 
+def boundary_loops(F):
+    """Every boundary loop of a manifold mesh, each ordered (libigl ``boundary_loop_all``).
+
+    Examples
+    --------
+    >>> F = np.array([[0, 1, 2], [3, 4, 5]])
+    >>> [sorted(L.tolist()) for L in boundary_loops(F)]
+    [[0, 1, 2], [3, 4, 5]]
+    """
+    import igl
+
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    if len(F) == 0:
+        return []
+    return [np.asarray(L, np.int64) for L in igl.boundary_loop_all(F)]
+
+
 def components(V, F):
     """The connected components of a mesh as stand-alone meshes.
 
@@ -233,8 +250,14 @@ def split_components(V, F):
     return parts
 
 
-def _nonmanifold_vertices(n, F):
-    """Vertices whose incident faces do not form a single edge-connected fan."""
+def nonmanifold_vertices(n, F):
+    """Vertices whose incident faces do not form a single edge-connected fan (bow-ties).
+
+    Examples
+    --------
+    >>> nonmanifold_vertices(5, np.array([[0, 1, 2], [0, 3, 4]])).tolist()
+    [0]
+    """
     m = len(F)
     if m == 0:
         return np.zeros(0, np.int64)
@@ -339,7 +362,7 @@ def topology_scan(V, F):
     ncomp, labels = vertex_components(n, F)
     comp_ids = np.unique(labels[used])
     chi = int(len(used) - len(E) + len(F))
-    nm_vertices = _nonmanifold_vertices(n, F)
+    nm_vertices = nonmanifold_vertices(n, F)
     genus = None
     if nonmanifold_edges == 0 and len(nm_vertices) == 0 and inconsistent == 0:
         g2 = 2 * len(comp_ids) - chi - loops

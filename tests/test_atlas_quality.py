@@ -172,3 +172,47 @@ def test_cli_atlas_stack_reads_back_valid(tmp_path, capsys):
                "--resolution", "256", "--padding", "2", "--quiet", "--device", "cpu"])
     out = capsys.readouterr().out
     assert rc == 0 and "islands stacked on identical ones" in out, out
+
+
+def test_chart_with_a_hole_is_solved_whole_with_a_filler():
+    from neuraluv.atlas.candidates import chart_is_disk, chart_mesh
+    from neuraluv.atlas.routing import route_charts
+    from neuraluv.datasets import disk
+    from neuraluv.solver.config import get_config
+    from neuraluv.topology import is_disk_like, submesh
+
+    V, F = disk(n_rings=5)
+    ring = np.array([f for f in range(len(F)) if 0 not in F[f]])  # an annulus: the centre's fan removed
+    vi, Fl = submesh(F, ring)
+    assert not is_disk_like(V[vi], Fl)[0] and chart_is_disk(V, F, ring)[0]
+    vi, Fl, Vx, Fx = chart_mesh(V, F, ring)
+    inner = np.setdiff1d(F[(F == 0).any(1)], [0])  # the hole's rim: the removed centre's neighbours
+    assert len(Vx) == 1 and len(Fx) == len(inner) and np.allclose(Vx[0], V[inner].mean(0))
+    (c,) = route_charts(V, F, [(ring, "annulus")], get_config("test", iterations=60, retries=0))
+    assert c.route == "neural" and len(c.islands) == 1 and c.solver["filled_holes"] == 1
+    fidx, vi2, Fl2, uv = c.islands[0]
+    assert np.array_equal(fidx, ring) and len(uv) == len(vi2) and c.metrics["flips"] == 0
+
+
+def test_chart_touching_itself_at_a_vertex_is_split_there_not_cut():
+    from neuraluv.atlas.candidates import chart_is_disk, chart_mesh
+    from neuraluv.topology import is_disk_like, submesh
+
+    n = 4  # a 4x4 grid of cells; the chart winds round and meets itself at grid vertex (2, 2) only
+    V = np.array([[c, r, 0.0] for r in range(n + 1) for c in range(n + 1)])
+    vid = lambda r, c: r * (n + 1) + c  # noqa: E731
+    cells = [(1, 1), (1, 0), (2, 0), (3, 0), (3, 1), (3, 2), (2, 2)]
+    F = []
+    for r, c in cells:
+        a, b, d, e = vid(r, c), vid(r + 1, c), vid(r, c + 1), vid(r + 1, c + 1)
+        F += [[a, d, e], [a, e, b]]
+    F = np.array(F)
+    chart = np.arange(len(F))
+    vi, Fl = submesh(F, chart)
+    assert not is_disk_like(V[vi], Fl)[0]
+    vi, Fl, Vx, Fx = chart_mesh(V, F, chart)
+    assert (vi == vid(2, 2)).sum() == 2 and len(Vx) == 0 and chart_is_disk(V, F, chart)[0]
+    # two pieces touching at a vertex are not "holes": no filler, still not a disk
+    two = np.array([0, 1, 12, 13])
+    vi, Fl, Vx, Fx = chart_mesh(V, F, two)
+    assert len(Vx) == 0 and not chart_is_disk(V, F, two)[0]

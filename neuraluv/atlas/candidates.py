@@ -7,7 +7,7 @@ from neuraluv.meshfix import normalize_unit_box
 from neuraluv.topology import components, face_components, is_disk_like, submesh
 
 __all__ = ["seam_charts", "bisect_faces", "split_into_disks", "chart_candidates", "merge_small_charts",
-           "congruent_components"]
+           "congruent_components", "chart_mesh"]
 
 
 def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
@@ -131,9 +131,79 @@ def split_into_disks(V, F, fidx, note="split"):
     return out
 
 
+def chart_mesh(V, F, fidx):
+    """The local mesh of a chart, made a disk where that needs no cut.
+
+    A chart cut from a scan often touches itself at a vertex (a bow-tie: two fans
+    of the chart meet there) or encloses small holes. Instead of bisecting such a
+    chart into pieces, the bow-tie vertex is split into one copy per fan (the
+    island's UVs may then differ at the two copies) and every hole but the
+    longest boundary loop is closed by a fan of *filler* triangles around a new
+    vertex at the hole's centroid. The solver maps the filled disk; the fillers are
+    then dropped, and a map that is injective on the filled disk is injective on
+    the chart.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    fidx : (k,) int array, the chart's faces
+
+    Returns
+    -------
+    vi : (p,) int array, the global vertex of each local vertex (repeated for a split bow-tie)
+    Fl : (k,3) int array, the chart's faces in local indices (row ``i`` is face ``fidx[i]``)
+    Vx : (e,3) float array, positions of the filler vertices (local indices ``p, p+1, …``)
+    Fx : (h,3) int array, the filler triangles (local indices, oriented like ``Fl``)
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> Vd, Fd = disk(n_rings=3)
+    >>> keep = np.array([f for f in range(len(Fd)) if 0 not in Fd[f]])  # a ring: the centre's fan removed
+    >>> vi, Fl, Vx, Fx = chart_mesh(Vd, Fd, keep)
+    >>> len(Vx), len(Fx) > 0, is_disk_like(np.vstack([Vd[vi], Vx]), np.vstack([Fl, Fx]))[0]
+    (1, True, True)
+    """
+    import igl
+
+    from neuraluv.topology import boundary_loops, nonmanifold_vertices
+
+    V = np.asarray(V, float)
+    vi, Fl = submesh(F, np.asarray(fidx, np.int64))
+    if len(nonmanifold_vertices(len(vi), Fl)):
+        _, SF, SVI = igl.split_nonmanifold(V[vi], Fl)
+        vi, Fl = vi[np.asarray(SVI, np.int64)], np.asarray(SF, np.int64)
+    loops = boundary_loops(Fl)
+    Vx, Fx = np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    if len(loops) > 1 and face_components(Fl)[0] == 1:  # loops of one piece: its outline and its holes
+        P = V[vi]
+        length = [float(np.linalg.norm(P[L] - P[np.roll(L, -1)], axis=1).sum()) for L in loops]
+        outer = int(np.argmax(length))
+        directed = {(int(a), int(b)) for f in Fl for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
+        xs, fs = [], []
+        for k, L in enumerate(loops):
+            if k == outer:
+                continue
+            c = len(vi) + len(xs)
+            xs.append(P[L].mean(0))
+            nxt = np.roll(L, -1)
+            if (int(L[0]), int(nxt[0])) in directed:  # the chart runs a -> b: the filler runs b -> a
+                fs += [[b, a, c] for a, b in zip(L, nxt)]
+            else:
+                fs += [[a, b, c] for a, b in zip(L, nxt)]
+        Vx, Fx = np.array(xs, float), np.array(fs, np.int64)
+    return vi, Fl, Vx, Fx
+
+
+def chart_is_disk(V, F, fidx):
+    """``(ok, why)`` of :func:`~neuraluv.topology.is_disk_like` on the chart's :func:`chart_mesh`."""
+    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)
+    return is_disk_like(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))
+
+
 def _make_disks(V, F, fidx, note, out, depth=0):
-    vi, Fc = submesh(F, fidx)
-    ok, why = is_disk_like(V[vi], Fc)
+    ok, why = chart_is_disk(V, F, fidx)
     if ok:
         out.append((fidx, note))
         return
@@ -190,13 +260,16 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
     every one of them becomes an island thinner than the padding. A small chart is
     merged into the neighbour it shares a seam with when
 
-    * the union is still disk-like (:func:`~neuraluv.topology.is_disk_like`),
+    * the union is still disk-like (:func:`~neuraluv.topology.is_disk_like` of its
+      :func:`chart_mesh`: holes it encloses filled, bow-tie vertices split),
     * the seam vertices that become interior carry little Gaussian curvature:
       ``Σ |2π − Σθ_v| ≤ max_curvature`` (radians) over those vertices, and
     * a quick conformal flattening of the union (libigl LSCM) has no flipped face
       and a boundary that does not cross itself — a flap merged at zero curvature
       can still wrap round and overlap its chart, which the neural map would then
-      inherit (the chart would be split again, or become a fallback).
+      inherit (the chart would be split again, or become a fallback). When the
+      neighbour alone does not flatten that way either, LSCM says nothing about
+      the merge and the neural solve decides.
 
     A flap hinged on one edge adds no interior vertex, so it merges at zero cost:
     its dihedral angle is extrinsic and the flattening stays an isometry there.
@@ -289,8 +362,8 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
                     options.append((c, -shared, j))
             for c, _, j in sorted(options):
                 union = np.concatenate([faces[j], faces[k]])
-                vi, Fc = submesh(F, union)
-                if not is_disk_like(V[vi], Fc)[0] or not _flattens(V[vi], Fc):
+                if not _merge_keeps_disk(V, F, union) or not (
+                        _merge_flattens(V, F, union) or not _merge_flattens(V, F, faces[j])):
                     continue
                 big, small = (j, k) if len(faces[j]) >= len(faces[k]) else (k, j)
                 faces[big] = union
@@ -304,6 +377,16 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
         s, n = src[k]
         out.append((np.sort(faces[k]), f"{s} + {n} merged" if n else s))
     return out
+
+
+def _merge_keeps_disk(V, F, fidx):
+    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)  # a neighbour may enclose holes (filled) or touch itself
+    return is_disk_like(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))[0]
+
+
+def _merge_flattens(V, F, fidx):
+    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)
+    return _flattens(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))
 
 
 def _flattens(V, F):

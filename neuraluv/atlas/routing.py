@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from neuraluv.atlas.candidates import bisect_faces
+from neuraluv.atlas.candidates import bisect_faces, chart_mesh
 from neuraluv.atlas.validate import self_overlap
 from neuraluv.metrics import distortion_metrics
 from neuraluv.topology import boundary_loop, submesh
@@ -310,16 +310,17 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
     out = [None] * len(todo)
     retry, retried = [], set()
     idx, preps, why = [], [], {}
+    meshes = [chart_mesh(V, F, fidx) for fidx, _, _ in todo]  # bow-ties split, holes filled (fillers dropped later)
     for k, (fidx, src, note) in enumerate(todo):
-        vi, Fl = submesh(F, fidx)
-        uv = unfold_tree(V[vi], Fl)
+        vi, Fl, Vx, Fx = meshes[k]
+        uv = unfold_tree(V[vi], Fl) if len(Fx) == 0 else None
         if uv is not None and boundary_is_simple(uv, Fl):
             out[k] = _finish(AtlasChart(fidx, "exact", "exact-unfold", "", src, [(fidx, vi, Fl, uv)]), V, t0)
             continue
         if uv is not None:
             why[k] = "exact unfold overlaps itself; "
         try:
-            preps.append(prepare_chart(V[vi], Fl, cfg, check=False, label=f"chart {k}"))
+            preps.append(prepare_chart(np.vstack([V[vi], Vx]), np.vstack([Fl, Fx]), cfg, check=False, label=f"chart {k}"))
             idx.append(k)
         except Exception as exc:  # degenerate input for the eigensolver etc.: a marked fallback, never a crash
             why[k] = why.get(k, "") + f"neural solver error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
@@ -331,14 +332,18 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             why[k] = why.get(k, "") + "time budget exhausted before the neural solve"
     for k, res in zip(idx, results):
         fidx, src, _ = todo[k]
-        vi, Fl = submesh(F, fidx)
+        vi, Fl, Vx, Fx = meshes[k]
         solver = res.summary()
         solver.pop("metrics", None)
-        if res.status == "neural" and boundary_is_simple(res.uv, Fl):
-            out[k] = _finish(AtlasChart(fidx, "neural", "neural", "", src, [(fidx, vi, Fl, res.uv)], solver=solver), V, t0)
+        if len(Fx):
+            solver["filled_holes"] = int(len(Vx))
+        uv = None if res.uv is None else res.uv[:len(vi)]  # the fillers' vertices come last: dropped
+        # no flip and a simple outer boundary: injective on the filled disk, hence on the chart
+        if res.status == "neural" and boundary_is_simple(res.uv, np.vstack([Fl, Fx])):
+            out[k] = _finish(AtlasChart(fidx, "neural", "neural", "", src, [(fidx, vi, Fl, uv)], solver=solver), V, t0)
             continue
         if res.status == "neural":
-            why[k] = why.get(k, "") + f"neural map overlaps itself in UV ({100 * self_overlap(res.uv, Fl):.3g}% of its area)"
+            why[k] = why.get(k, "") + f"neural map overlaps itself in UV ({100 * self_overlap(uv, Fl):.3g}% of its area)"
         else:
             why[k] = why.get(k, "") + f"neural: {res.reason}"
         timed_out = deadline is not None and time.perf_counter() > deadline
