@@ -30,7 +30,7 @@ __all__ = [
     "plot_checkerboard_transfer", "plot_face_heatmap", "plot_trace",
     "save_uv_layout", "save_checkerboard_transfer", "plot_alignment_curves", "plot_routes", "plot_repair", "ROUTE_COLORS",
     "camera_view", "checker_count", "detj_norm", "DETJ_CMAP", "DETJ_FOLD_COLOR", "scalar_colors", "face_detj",
-    "plot_surface_and_uv", "solve_filmstrip", "plotly_solve_slider", "show_plotly",
+    "plot_surface_and_uv", "solve_filmstrip", "plotly_solve_slider", "show_plotly", "live_view",
 ]
 
 
@@ -359,6 +359,20 @@ def render_surface(V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FU
     import pyvista as pv
 
     pv.OFF_SCREEN = True
+    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    _add_surface(pl, V, F, scalars=scalars, cmap=cmap, clim=clim, uv=uv, FUV=FUV, texture=texture,
+                 scalar_bar=scalar_bar, face_colors=face_colors, n_checks=n_checks)
+    _set_camera(pl, np.asarray(V, float), np.asarray(F), view, window_size)
+    img = pl.screenshot(return_img=True)
+    pl.close()
+    return np.asarray(img)
+
+
+def _add_surface(pl, V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FUV=None, texture=None,
+                 scalar_bar=None, face_colors=None, n_checks="auto"):
+    """Add the surface to a pyvista plotter: checker-textured, per-face coloured, a heatmap or plain."""
+    import pyvista as pv
+
     F = np.asarray(F)
     V = np.asarray(V, float)
     if uv is not None:
@@ -376,7 +390,6 @@ def render_surface(V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FU
         mesh.active_texture_coordinates = np.nan_to_num(tc)
     else:
         mesh = _polydata(V, F)
-    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
     pl.set_background("white")
     if uv is not None:
         pl.add_mesh(mesh, texture=pv.Texture(texture), smooth_shading=False)
@@ -393,10 +406,54 @@ def render_surface(V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FU
                     scalar_bar_args={"title": scalar_bar})
     else:
         pl.add_mesh(mesh, color="lightsteelblue")
-    _set_camera(pl, V, F, view, window_size)
-    img = pl.screenshot(return_img=True)
-    pl.close()
-    return np.asarray(img)
+
+
+def _trame_available():
+    import importlib.util
+
+    return all(importlib.util.find_spec(m) is not None for m in ("trame", "trame_vtk", "trame_vuetify"))
+
+
+def live_view(V, F, UV=None, FUV=None, *, scalars=None, cmap="viridis", clim=None, backend="auto", view="plane"):
+    """An interactive 3D view of a mesh (checker-textured through ``UV`` or a per-face heatmap).
+
+    In JupyterLab with the ``viewer`` extra (``pip install neuraluv[viewer]``:
+    pyvista's trame backend) the view can be turned and zoomed live; everywhere
+    else — without the extra, off screen (``PYVISTA_OFF_SCREEN=true``, as in CI
+    and the book build), or with ``backend="static"`` — the same scene is drawn
+    as a static matplotlib figure, so a notebook runs the same cell either way.
+
+    Parameters
+    ----------
+    V, F, UV, FUV : the mesh and (optionally) its layout
+    scalars : (m,) float array, optional; per-face values (``cmap``, ``clim``; ``cmap="detj"``)
+    backend : ``"auto"``, ``"trame"`` (live; an error without the extra) or ``"static"``
+    view : the initial camera (see :func:`render_surface`)
+
+    Returns
+    -------
+    The trame viewer widget (live) or a matplotlib Figure (static).
+    """
+    live = backend == "trame" or (backend == "auto" and _trame_available()
+                                  and os.environ.get("PYVISTA_OFF_SCREEN", "").lower() not in ("1", "true"))
+    if backend not in ("auto", "trame", "static"):
+        raise ValueError(f"backend must be 'auto', 'trame' or 'static', not {backend!r}")
+    if not live:
+        plt = _mpl()
+        img = render_surface(V, F, uv=UV, FUV=FUV, scalars=scalars, cmap=cmap, clim=clim, view=view)
+        fig, ax = plt.subplots(figsize=(6, 6))
+        ax.imshow(img)
+        ax.set_axis_off()
+        ax.set_title("static view (live: pip install neuraluv[viewer], JupyterLab)", fontsize=9)
+        return fig
+    if not _trame_available():
+        raise ImportError("the live view needs pyvista's trame backend: pip install 'neuraluv[viewer]'")
+    import pyvista as pv
+
+    pl = pv.Plotter(notebook=True)
+    _add_surface(pl, V, F, scalars=scalars, cmap=cmap, clim=clim, uv=UV, FUV=FUV)
+    _set_camera(pl, np.asarray(V, float), np.asarray(F), view, pl.window_size)
+    return pl.show(jupyter_backend="trame", return_viewer=True)
 
 
 def _set_camera(pl, V, F, view, window_size):

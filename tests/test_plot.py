@@ -141,3 +141,21 @@ def test_solve_film_strip_and_slider():
     assert [s.label for s in pf.layout.sliders[0].steps][0] == "0"
     html = pf.to_html(include_plotlyjs=False, full_html=False)
     assert "plotly-graph-div" in html
+
+
+def test_live_view_falls_back_to_a_static_figure(monkeypatch):
+    pytest.importorskip("pyvista")
+    import matplotlib.figure
+
+    from neuraluv import plot
+    from neuraluv.datasets import disk
+
+    V, F = disk(n_rings=3)
+    monkeypatch.setenv("PYVISTA_OFF_SCREEN", "true")  # as in CI and the book build: never a live widget
+    fig = plot.live_view(V, F, V[:, :2], scalars=None)
+    assert isinstance(fig, matplotlib.figure.Figure) and "static view" in fig.axes[0].get_title()
+    with pytest.raises(ValueError, match="backend"):
+        plot.live_view(V, F, backend="vtk")
+    if not plot._trame_available():
+        with pytest.raises(ImportError, match=r"neuraluv\[viewer\]"):
+            plot.live_view(V, F, backend="trame")
