@@ -108,7 +108,7 @@ class SolveRecorder:
         frames.append(self._snapshot(event, step, model))
 
 
-def record_solve(V, F, config="fast", *, seed=0, growth=1.3, label="chart", **solve_kw):
+def record_solve(V, F, config="fast", *, seed=0, growth=1.3, label="chart", callback=None, **solve_kw):
     """Solve one chart and record the film of its returned attempt.
 
     Parameters
@@ -118,6 +118,9 @@ def record_solve(V, F, config="fast", *, seed=0, growth=1.3, label="chart", **so
     seed : int
     growth : float
         See :class:`SolveRecorder`.
+    callback : callable, optional
+        Another ``callback(event, step, model)`` called at every step as well (e.g. an
+        NTK :class:`~neuraluv.solver.ntk.TrajectoryRecorder`).
     **solve_kw
         Passed to :func:`~neuraluv.solver.chart.solve_chart` (``device``, ``deadline``, ...).
 
@@ -138,7 +141,13 @@ def record_solve(V, F, config="fast", *, seed=0, growth=1.3, label="chart", **so
 
     prep = prepare_chart(V, F, config, label=label)
     rec = SolveRecorder(prep, growth=growth)
-    res = solve_chart(V, F, config, seed=seed, callback=rec, label=label, **solve_kw)
+
+    def both(event, step, model):
+        rec(event, step, model)
+        if callback is not None:
+            callback(event, step, model)
+
+    res = solve_chart(V, F, config, seed=seed, callback=both, label=label, **solve_kw)
     k = int(getattr(res, "seed", seed)) - int(seed)
     frames = rec.attempts[k] if 0 <= k < len(rec.attempts) else (rec.attempts[-1] if rec.attempts else [])
     return res, SolveFilm(V=prep.Vn, F=np.asarray(prep.F), frames=frames, label=label)
