@@ -50,6 +50,9 @@ def _packing_options(a):
                    help="compact (default: each island turned to its smallest box) or upright (its main axis along U)")
     a.add_argument("--no-merge", action="store_true",
                    help="keep xatlas's small charts instead of merging them into neighbours (more, smaller islands)")
+    a.add_argument("--pack-trials", type=positive_int, default=4,
+                   help="packings the tight packer tries with the islands turned by quarter turns; more trials pack "
+                        "fuller on average, a few seconds each (default 4)")
     a.add_argument("--stack", action="store_true",
                    help="identical islands (same triangulation, congruent in 3D, e.g. instanced parts) share one place "
                         "in the texture; validation counts them as stacked, not as overlaps")
@@ -69,6 +72,7 @@ def cmd_atlas(args):
                           resolution=args.resolution, padding=args.padding, packer=args.packer, seed=args.seed,
                           device=args.device, **_overrides(args), texel_density=args.texel_density,
                           orient=args.orient, merge=not args.no_merge, stack=args.stack,
+                          pack_trials=args.pack_trials,
                           time_budget=args.time_budget or None, threads=args.threads, progress=not args.quiet,
                           min_height=args.min_height)
     t = res.totals()
