@@ -216,3 +216,13 @@ def test_chart_touching_itself_at_a_vertex_is_split_there_not_cut():
     two = np.array([0, 1, 12, 13])
     vi, Fl, Vx, Fx = chart_mesh(V, F, two)
     assert len(Vx) == 0 and not chart_is_disk(V, F, two)[0]
+
+
+def test_bench_atlas_quality_cli_writes_the_table(tmp_path, capsys):
+    from neuraluv.cli import main
+
+    rc = main(["bench", "atlas-quality", "--quick", "--meshes", "glove", "--quiet", "-o", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "| glove |" in out and "ours + tight" in out
+    md = (tmp_path / "atlas_quality.md").read_text()
+    assert "Acceptance" in md and "xatlas (own charts + packer)" in md

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv.bench.provenance import (BenchOutput, command_line, fmt_num, fmt_pct, machine_info, markdown_table,
-                                       write_csv, write_markdown)
+                                       plain, write_csv, write_markdown)
 
-__all__ = ["add_arguments", "run", "seam_length", "xatlas_atlas"]
+__all__ = ["add_arguments", "bench", "run", "seam_length", "xatlas_atlas"]
 
 DEFAULT_MESHES = ["cow", "spot", "stanford-bunny", "fertility", "nefertiti"]
 
@@ -106,7 +106,7 @@ def _assets(args):
     from neuraluv import datasets
     from neuraluv.datasets.generated import generated_asset
 
-    names = args.meshes or DEFAULT_MESHES
+    names = args.meshes or (["spot"] if args.quick else DEFAULT_MESHES)
     out = []
     for name in names:
         try:
@@ -121,7 +121,8 @@ def _assets(args):
     return out
 
 
-def run(args):
+def bench(args):
+    """Run the comparison for parsed ``args`` (see :func:`add_arguments`); returns the BenchOutput."""
     from neuraluv.atlas.build import build_atlas, repack
 
     out_dir = Path(args.output)
@@ -170,6 +171,14 @@ def run(args):
     files.append(write_markdown(out_dir / "atlas_quality.md", "Atlas quality beside xatlas", md,
                                 command=command_line("atlas-quality", args), machine=machine))
     return BenchOutput(name="atlas-quality", rows=rows, markdown=md, files=files)
+
+
+def run(args):
+    """``neuraluv bench atlas-quality``: print the table, list the files, exit 0."""
+    res = bench(args)
+    print(plain(res.markdown))
+    print("wrote " + ", ".join(str(p) for p in res.files))
+    return 0
 
 
 def _pct(x):
