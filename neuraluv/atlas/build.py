@@ -205,7 +205,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
     deadline = None if time_budget is None else t0 + float(time_budget)
     with torch_threads(threads):
         charts = route_charts(Vr, Fr, cands, cfg, seed=seed, device=device, deadline=deadline, progress=progress)
-    charts += _copied_charts(charts, copies, len(Fr), len(Vr))
+    charts += _copied_charts(charts, copies, len(Fr))
     t_route = time.perf_counter()
     Vout = Vin[vmap]
     UV, FUV, face_chart, face_route, packed = _pack(charts, Vout, len(Fr), packer, padding, resolution,
@@ -232,20 +232,22 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
                        validation=validation, info=info)
 
 
-def _copied_charts(charts, copies, m, n):
+def _copied_charts(charts, copies, m):
     """The charts of every copy component: the original's charts, faces and vertices renamed."""
     from dataclasses import replace
 
+    chart_of = np.full(m, -1, np.int64)
+    for i, c in enumerate(charts):
+        chart_of[c.faces] = i
     out = []
-    for rf, fc, rv, vc in copies:
-        fmap = np.full(m, -1, np.int64)
-        fmap[rf] = fc
-        vmap = np.full(n, -1, np.int64)
-        vmap[rv] = vc
-        for i, c in enumerate(charts):
-            if len(c.faces) and (fmap[c.faces] >= 0).all():
-                out.append(replace(c, faces=fmap[c.faces], reason=(c.reason + "; " if c.reason else "") + f"copy of chart {i}",
-                                   islands=[(fmap[f], vmap[v], Fl, uv) for f, v, Fl, uv in c.islands], time=0.0))
+    for rf, fc, rv, vc in copies:  # rf is sorted (faces of a component in index order)
+        fmap = lambda f: fc[np.searchsorted(rf, f)]  # noqa: E731
+        order = np.argsort(rv)
+        vmap = lambda v: vc[order[np.searchsorted(rv, v, sorter=order)]]  # noqa: E731
+        for i in np.unique(chart_of[rf][chart_of[rf] >= 0]):
+            c = charts[i]
+            out.append(replace(c, faces=fmap(c.faces), reason=(c.reason + "; " if c.reason else "") + f"copy of chart {i}",
+                               islands=[(fmap(f), vmap(v), Fl, uv) for f, v, Fl, uv in c.islands], time=0.0))
     return out
 
 
@@ -306,15 +308,14 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
     """
     islands = [isl for c in charts for isl in c.islands]
     rep = stack_groups(V, islands) if stack else np.arange(len(islands))
-    own = np.flatnonzero(rep == np.arange(len(islands)))
+    own = np.flatnonzero(rep == np.arange(len(islands)))  # the islands packed (copies take their original's place)
     V, _, unit = normalize_unit_box(V)  # densities in unit-box lengths: no overflow for huge inputs
-    uvs = []
-    for fidx, vi, Fl, uv in islands:
+    uvs, fl = [], []
+    for fidx, vi, Fl, uv in (islands[i] for i in own):
         d = island_density(uv, V[vi], Fl)
         u = uv / d if np.isfinite(d) and d > 0 else uv
         uvs.append(upright(u, V[vi]) if orient == "upright" else rotate_to_min_box(u))
-    fl = [isl[2] for isl in islands]
-    uvs, fl = [uvs[i] for i in own], [fl[i] for i in own]
+        fl.append(Fl)
     if orient not in ("compact", "upright"):
         raise NeuralUVError(f"unknown orientation {orient!r}: use 'compact' or 'upright'")
     if texel_density is not None and packer != "tight":

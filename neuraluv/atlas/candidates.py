@@ -196,10 +196,15 @@ def chart_mesh(V, F, fidx):
     return vi, Fl, Vx, Fx
 
 
+def filled_chart(V, F, fidx):
+    """``(Vc, Fc)``: the chart's :func:`chart_mesh` as one mesh, filler vertices and triangles appended."""
+    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)
+    return np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx])
+
+
 def chart_is_disk(V, F, fidx):
     """``(ok, why)`` of :func:`~neuraluv.topology.is_disk_like` on the chart's :func:`chart_mesh`."""
-    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)
-    return is_disk_like(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))
+    return is_disk_like(*filled_chart(V, F, fidx))
 
 
 def _make_disks(V, F, fidx, note, out, depth=0):
@@ -362,8 +367,8 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
                     options.append((c, -shared, j))
             for c, _, j in sorted(options):
                 union = np.concatenate([faces[j], faces[k]])
-                if not _merge_keeps_disk(V, F, union) or not (
-                        _merge_flattens(V, F, union) or not _merge_flattens(V, F, faces[j])):
+                Vc, Fc = filled_chart(V, F, union)  # a neighbour may enclose holes (filled) or touch itself
+                if not is_disk_like(Vc, Fc)[0] or not (_flattens(Vc, Fc) or not _flattens(*filled_chart(V, F, faces[j]))):
                     continue
                 big, small = (j, k) if len(faces[j]) >= len(faces[k]) else (k, j)
                 faces[big] = union
@@ -377,16 +382,6 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
         s, n = src[k]
         out.append((np.sort(faces[k]), f"{s} + {n} merged" if n else s))
     return out
-
-
-def _merge_keeps_disk(V, F, fidx):
-    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)  # a neighbour may enclose holes (filled) or touch itself
-    return is_disk_like(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))[0]
-
-
-def _merge_flattens(V, F, fidx):
-    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)
-    return _flattens(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))
 
 
 def _flattens(V, F):
