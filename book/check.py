@@ -9,7 +9,9 @@ intro, paper-scale and API pages exist; headless Chromium renders the first page
 (screenshot not blank); the quickstart's interactive solve film (plotly, with an
 iteration slider) is in its page, plotly.js is embedded (no CDN), and Chromium
 draws it: the figure's div gets plotly's SVG layers and the slider, and a
-screenshot of the figure alone shows the det J colours. The screenshots are kept in
+screenshot of the figure alone shows the det J colours; the Jacobians chapter's
+linked surface/UV views outline a hovered face in both views (a hover event is
+emitted in Chromium and the outline read back). The screenshots are kept in
 ``<html>/../check/`` for a person to look at.
 
 Exit status 0 when every check passes; 1 with one line per failed check.
@@ -29,6 +31,25 @@ BOOK = Path(__file__).resolve().parent
 NOTEBOOKS = sorted((BOOK.parent / "notebooks").glob("*.ipynb"))
 #: the page that must carry an interactive plotly figure with an iteration slider
 PLOTLY_PAGE = "00_quickstart"
+#: the page that must carry the linked surface / UV views (hover a face: outlined in both)
+LINKED_PAGE = "00b_jacobians_distortion"
+
+# Emits a hover on face 5 of the UV view and writes what the figure's hover script did into the page.
+_HOVER_PROBE = """<script>
+setTimeout(function () {
+  var gd = Array.from(document.querySelectorAll('.plotly-graph-div')).find(function (g) {
+    return g.layout && g.layout.meta && g.layout.meta.linked_hover; });
+  var out = document.createElement('pre'); out.id = 'hover-probe';
+  if (!gd) { out.textContent = 'HOVER none'; document.body.appendChild(out); return; }
+  gd.emit('plotly_hover', {points: [{curveNumber: 1, pointNumber: 5}]});
+  setTimeout(function () {
+    var n = gd.data.length, d = gd._fullData[0];
+    out.textContent = 'HOVER ' + JSON.stringify({visible: [gd.data[n - 2].visible, gd.data[n - 1].visible],
+      outline: Array.from(gd.data[n - 2].x), face: [d.x[d.i[5]], d.x[d.j[5]], d.x[d.k[5]], d.x[d.i[5]]]});
+    document.body.appendChild(out);
+  }, 500);
+}, 3000);
+</script>"""
 
 
 def check_pages(html: Path) -> list[str]:
@@ -178,6 +199,37 @@ def check_plotly(html: Path) -> list[str]:
     return errors
 
 
+def check_linked(html: Path) -> list[str]:
+    """The Jacobians chapter's linked views: hovering a face (an emitted hover event) outlines it in both views."""
+    import json
+
+    page = html / "notebooks" / f"{LINKED_PAGE}.html"
+    if not page.exists():
+        return [f"{page.name}: missing (the page with the linked views)"]
+    text = page.read_text(encoding="utf-8")
+    if "plotly_hover" not in text or "linked_hover" not in text:
+        return [f"{page.name}: no linked surface/UV figure (plot.plotly_linked_views shown with plot.show_plotly)"]
+    chromium = _chromium()
+    if chromium is None:
+        print("book/check.py: chromium not installed, linked-view hover check SKIPPED")
+        return []
+    probe = page.with_name(f"_check_{page.name}")
+    probe.write_text(text.replace("</body>", _HOVER_PROBE + "</body>"), encoding="utf-8")
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            dom = subprocess.run(_chromium_cmd(chromium, tmp, "--virtual-time-budget=30000", "--dump-dom",
+                                               probe.as_uri()), capture_output=True, timeout=240, text=True).stdout
+    finally:
+        probe.unlink(missing_ok=True)
+    found = re.search(r"HOVER (\{.*?\})</pre>", dom)
+    if not found:
+        return [f"{page.name}: the linked figure was not drawn (no hover probe result)"]
+    res = json.loads(found.group(1))
+    if res["visible"] != [True, True] or res["outline"] != res["face"]:
+        return [f"{page.name}: hovering a face did not outline it in both views ({res})"]
+    return []
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--html", type=Path, default=BOOK / "_build" / "html", help="the built HTML folder")
@@ -187,11 +239,14 @@ def main(argv=None) -> int:
         errors = check_screenshot(a.html)
     if not errors:
         errors = check_plotly(a.html)
+    if not errors:
+        errors = check_linked(a.html)
     for e in errors:
         print(f"book check failed: {e}", file=sys.stderr)
     if not errors:
         print(f"book check passed: {len(NOTEBOOKS)} notebook pages with figures and the API pages; "
-              f"the plotly solve slider renders ({a.html.parent / 'check'})")
+              f"the plotly solve slider renders ({a.html.parent / 'check'}); hovering a face of the linked views "
+              "outlines it in both")
     return 1 if errors else 0
 
 

@@ -17,7 +17,7 @@ from neuraluv.jacobian import signed_areas_2d
 #: Packers of :func:`neuraluv.atlas.build_atlas` (the first is the default).
 PACKERS = ("tight", "shelf", "xatlas")
 
-__all__ = ["PACKERS", "PackResult", "shelf_pack", "rotate_to_min_box", "xatlas_pack", "tight_pack", "island_density", "upright"]
+__all__ = ["PACKERS", "PackResult", "shelf_pack", "rotate_to_min_box", "xatlas_pack", "raster_pack", "tight_pack", "xatlas_shape_pack", "island_density", "upright"]
 
 
 @dataclass
@@ -273,6 +273,246 @@ def island_density(uv, V, F):
     return float(np.sqrt(a2 / a3)) if a3 > 0 and a2 > 0 else float("nan")
 
 
+def _outlines(uv, f):
+    """A chart's outline rings (closed (k,2) arrays; holes are left out, so they count as filled)."""
+    import shapely
+
+    shape = shapely.union_all(shapely.polygons(np.asarray(uv, float)[np.asarray(f)]))
+    parts = getattr(shape, "geoms", [shape])
+    rings = [np.asarray(p.exterior.coords) for p in parts if p.geom_type == "Polygon" and not p.is_empty]
+    return rings or [np.asarray(uv, float)[np.asarray(f)].reshape(-1, 2)]
+
+
+def _raster(rings, cells):
+    """Rasterise outline rings at ``cells`` grid cells per UV unit: (mask (h,w) bool, UV-cell origin (2,))."""
+    from PIL import Image, ImageDraw
+
+    lo = np.floor(np.vstack(rings).min(0) * cells) - 1.0
+    qs = [r * cells - lo for r in rings]
+    w, h = (np.ceil(np.vstack(qs).max(0)) + 2).astype(int)
+    img = Image.new("1", (int(w), int(h)), 0)
+    draw = ImageDraw.Draw(img)
+    for q in qs:  # fill and outline: every cell the outline crosses is (about) marked
+        draw.polygon(q.ravel().tolist(), fill=1, outline=1)
+    return np.array(img, bool), lo
+
+
+def _disk(r):
+    y, x = np.mgrid[-r:r + 1, -r:r + 1]
+    return x * x + y * y <= r * r
+
+
+def _raster_place(masks, grid, dil, border, rule, pages_max):
+    """Greedy placement of rasterised charts (largest first) on ``grid``² pages.
+
+    ``masks[i]`` lists chart ``i``'s candidate masks (one per rotation). A chart goes
+    where its mask, dilated by ``dil`` cells, covers no cell of a placed chart and stays
+    ``border`` cells inside the page; of the free spots the first in reading order
+    (``rule="corner"``) or the one that keeps the layout's box smallest (``"box"``) is
+    taken. Returns ``[(page, rotation, row, col)]`` or None when a chart found no spot
+    within ``pages_max`` pages.
+    """
+    from scipy import fft, ndimage
+
+    se = _disk(dil)
+    size = grid + 2 * dil
+    shape = (fft.next_fast_len(size, real=True),) * 2
+    occ, spec, ext, out = [], [], [], []
+    for cands in masks:
+        best = None
+        for page in range(pages_max):
+            if page == len(occ):
+                occ.append(np.zeros((size, size), np.float32))
+                spec.append(None)
+                ext.append((0, 0))
+            W, H = ext[page]
+            for k, m in enumerate(cands):
+                h, w = m.shape
+                if h > grid - 2 * border or w > grid - 2 * border:
+                    continue
+                D = ndimage.binary_dilation(np.pad(m, dil), se).astype(np.float32)
+                if spec[page] is None:  # an empty page: every spot is free
+                    hit = np.zeros((grid - h + 1, grid - w + 1), np.float32)
+                else:  # hit[y, x] = sum_ij occ[y+i, x+j] D[i, j]: no wrap-around inside the valid range
+                    hit = fft.irfft2(spec[page] * np.conj(fft.rfft2(D, shape)), shape)[:grid - h + 1, :grid - w + 1]
+                free = hit[border:grid - border - h + 1, border:grid - border - w + 1] < 0.5
+                if rule == "corner":  # the first free spot in reading order
+                    j = int(np.argmax(free.ravel()))
+                    if not free.ravel()[j]:
+                        continue
+                    y, x = divmod(j, free.shape[1])
+                    key = np.array([(y + border) * grid + x + border], np.int64)
+                    ys, xs = np.array([y + border]), np.array([x + border])
+                else:
+                    ys, xs = np.nonzero(free)
+                    if not len(ys):
+                        continue
+                    ys, xs = ys + border, xs + border
+                    side = np.maximum(np.maximum(W, xs + w), np.maximum(H, ys + h))
+                    key = (side.astype(np.int64) * 2 * grid + ys + xs) * grid + ys
+                j = int(np.argmin(key))
+                if best is None or key[j] < best[0]:
+                    best = (key[j], page, k, int(ys[j]), int(xs[j]))
+            if best is not None:
+                break
+        if best is None:
+            return None
+        _, page, k, y, x = best
+        m = cands[k]
+        occ[page][dil + y:dil + y + m.shape[0], dil + x:dil + x + m.shape[1]] += m
+        spec[page] = fft.rfft2(occ[page], shape)
+        ext[page] = (max(ext[page][0], x + m.shape[1]), max(ext[page][1], y + m.shape[0]))
+        out.append((page, k, y, x))
+    return out
+
+
+def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, angles=8, grid=256,
+                tolerance=0.01):
+    """Pack charts by their rasterised shapes, largest first, at the largest common scale that fits.
+
+    Each chart is rasterised on a ``grid``² page (cells of ``resolution / grid`` texels),
+    dilated by the padding, and placed greedily by an overlap test computed as one
+    correlation of the page's occupancy with the chart's mask, trying ``angles``
+    rotations of it (proper rotations only). Two placement rules are tried — the
+    first free spot in reading order (bottom-left fill) and the spot that keeps the
+    layout's box smallest — and the common scale is searched by bisection for each;
+    the fuller layout is kept, then grown to the padding line. The gaps are measured
+    exactly on the float64 UVs; when rasterisation left one short of ``padding``,
+    the dilation grows by a cell and the packing is redone.
+
+    Parameters
+    ----------
+    uvs : list of (n_i,2) float arrays
+        Charts at a common scale.
+    faces : list of (m_i,3) int arrays
+    padding : float
+        Minimum gap between charts, and to the border, in texels at ``resolution``.
+    resolution : int
+    texel_density : float, optional
+        Texels per UV unit instead of the search; charts that do not fit go on further
+        pages (``PackResult.pages``).
+    angles : int
+        Rotations tried per chart (multiples of ``360° / angles``); 1 keeps each chart
+        as given (e.g. upright islands).
+    grid : int
+        Cells per page side of the raster (finer packs tighter, slower).
+    tolerance : float
+        Relative precision of the scale search.
+
+    Returns
+    -------
+    PackResult (with ``pages``)
+
+    Raises
+    ------
+    ValueError
+        When an island is larger than a page at the given ``texel_density``.
+
+    Notes
+    -----
+    Greedy raster placement of irregular shapes (bottom-left fill, e.g. Hopper &
+    Turton 2001); the overlap of a chart with the page at every offset is
+    :math:`(O \star D)(y,x)=\sum_{i,j} O(y+i,x+j)\,D(i,j)`, a correlation, zero where
+    the dilated chart ``D`` fits. xatlas's packer places charts one by one at random or
+    scanned spots scored by the atlas size; with few large, irregular islands the
+    reading-order fill nests them closer.
+
+    Examples
+    --------
+    >>> sq = np.array([[0., 0], [1, 0], [1, 1], [0, 1]]); q = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> res = raster_pack([sq, 2 * sq, sq], [q, q, q], padding=4, resolution=128, grid=64)
+    >>> res.padding_texels >= 4, round(res.utilisation, 2) > 0.5
+    (True, True)
+    """
+    uvs = [np.asarray(u, float) for u in uvs]
+    faces = [np.asarray(f, np.int64) for f in faces]
+    grid = int(min(grid, resolution))
+    cell = float(resolution) / grid  # texels per cell
+    border = int(np.ceil(padding / cell))
+    area = np.array([_poly_area(u, f) for u, f in zip(uvs, faces)])
+    order = np.argsort(-area, kind="stable")
+    turns = [np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]])
+             for a in 2 * np.pi * np.arange(max(int(angles), 1)) / max(int(angles), 1)]
+
+    rings = [_outlines(u, f) for u, f in zip(uvs, faces)]
+
+    def attempt(cells, rule, dil, pages_max):
+        masks, origin = [], []
+        for i in order:
+            ms = [_raster([r @ R for r in rings[i]], cells) for R in turns]
+            masks.append([m for m, _ in ms])
+            origin.append([o for _, o in ms])
+        where = _raster_place(masks, grid, dil, border, rule, pages_max)
+        return None if where is None else (cells, rule, where, origin)
+
+    def layout(found):
+        cells, _, where, origin = found
+        packed, pages = [None] * len(uvs), np.zeros(len(uvs), np.int64)
+        for (page, k, y, x), i, org in zip(where, order, origin):
+            packed[i] = ((uvs[i] @ turns[k]) * cells - org[k] + [x, y]) * (cell / resolution)
+            pages[i] = page
+        return packed, pages
+
+    dil = int(np.ceil(padding / cell)) + 1
+    for _ in range(3):
+        if texel_density is not None:
+            cells = float(texel_density) / cell
+            big = max(float((u.max(0) - u.min(0)).max()) for u in uvs) * float(texel_density)
+            if big > resolution - 2 * padding:
+                raise ValueError(f"an island spans {big:.0f} texels at this texel density, more than a "
+                                 f"{resolution}-texel tile holds: lower the density or raise the resolution")
+            found = attempt(cells, "corner", dil, len(uvs))
+            if found is None:
+                raise ValueError("raster_pack could not place an island at this texel density")
+            tries = [found]
+        else:
+            hi = grid / np.sqrt(max(area.sum(), 1e-300))
+            tries = []
+            for rule in ("corner", "box"):
+                lo = hi / 2 if not tries else tries[-1][0]  # the second rule starts where the first ended
+                found = attempt(lo, rule, dil, 1)
+                while found is None:
+                    lo /= 1.5
+                    if lo < hi * 1e-3:
+                        raise ValueError("raster_pack could not fit the charts on one page")
+                    found = attempt(lo, rule, dil, 1)
+                top = hi
+                while top / lo > 1 + tolerance:
+                    mid = np.sqrt(lo * top)
+                    trial = attempt(mid, rule, dil, 1)
+                    if trial is not None:
+                        lo, found = mid, trial
+                    else:
+                        top = mid
+                tries.append(found)
+        best = None
+        for found in tries:
+            packed, pages = layout(found)
+            gap = _min_gap(packed, faces, pages)
+            if gap * resolution < padding * (1 - 1e-6):
+                continue
+            if texel_density is None:  # grow up to the padding line (gaps only widen)
+                lo_c = np.min([u.min(0) for u in packed], axis=0)
+                hi_c = np.max([u.max(0) for u in packed], axis=0)
+                edge = (padding + 0.01) / resolution  # a hundredth of a texel kept for the float32 write
+                grow = float(np.min((1 - 2 * edge) / np.maximum(hi_c - lo_c, 1e-300)))
+                packed = [(u - lo_c) * grow + edge for u in packed]
+                gap = _min_gap(packed, faces, pages)
+                scale = found[0] * cell / resolution * grow
+            else:
+                scale = float(texel_density) / resolution
+            util = float(sum(_poly_area(u, f) for u, f in zip(packed, faces))) / (int(pages.max()) + 1)
+            res = PackResult(uvs=packed, scale=float(scale), offsets=np.array([u.min(0) for u in packed]),
+                             utilisation=util, pages=pages,
+                             padding_texels=float(gap * resolution) if np.isfinite(gap) else float("inf"))
+            if best is None or res.utilisation > best.utilisation:
+                best = res
+        if best is not None:
+            return best
+        dil += 1
+    raise ValueError("raster_pack could not reach the padding; use the shelf packer")
+
+
 def _xatlas_place(start, allf, tpu, pad, resolution, brute_force):
     import xatlas
 
@@ -290,9 +530,72 @@ def _xatlas_place(start, allf, tpu, pad, resolution, brute_force):
     return at
 
 
-def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", tolerance=0.005, texel_density=None,
-               supersample=1, trials=4):
+#: Raster packings tried by :func:`tight_pack`, in order: (grid cells per side, rotations per chart).
+RASTER_TRIALS = ((512, 4), (256, 8), (384, 4), (256, 12))
+
+#: Above this many islands ``tight_pack(method="auto")`` places the shapes with xatlas (faster there).
+RASTER_MAX_ISLANDS = 300
+
+
+def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, trials=2, rotate=True,
+               method="auto"):
     """Pack charts by their shapes at the largest common scale that fits the texture, with exact padding.
+
+    The fullest of ``trials`` packings is kept: :func:`raster_pack` with the settings
+    of :data:`RASTER_TRIALS` (up to :data:`RASTER_MAX_ISLANDS` islands), or xatlas's
+    shape placement with quarter-turn trials (:func:`xatlas_shape_pack`) for more
+    islands or with ``method="xatlas"``.
+
+    Parameters
+    ----------
+    uvs : list of (n_i,2) float arrays
+        Charts at a common scale.
+    faces : list of (m_i,3) int arrays
+    padding : float
+        Minimum gap, in texels at ``resolution``.
+    resolution : int
+    texel_density : float, optional
+        Texels per UV unit instead of the largest scale that fits; several pages when needed.
+    trials : int
+        Packings tried; the fullest (fewest pages first) is kept.
+    rotate : bool
+        Turn charts to nest them (proper rotations only); False keeps each as given.
+    method : ``"auto"``, ``"raster"`` or ``"xatlas"``
+
+    Returns
+    -------
+    PackResult (with ``pages``)
+
+    Examples
+    --------
+    >>> sq = np.array([[0., 0], [1, 0], [1, 1], [0, 1]]); q = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> res = tight_pack([sq, 2 * sq, sq], [q, q, q], padding=4, resolution=128)
+    >>> res.padding_texels >= 4, round(res.utilisation, 2) > 0.5
+    (True, True)
+    """
+    if method not in ("auto", "raster", "xatlas"):
+        raise ValueError(f"unknown method {method!r}: use 'auto', 'raster' or 'xatlas'")
+    if method == "xatlas" or (method == "auto" and len(uvs) > RASTER_MAX_ISLANDS):
+        return xatlas_shape_pack(uvs, faces, padding=padding, resolution=resolution, texel_density=texel_density,
+                                 trials=trials if rotate else 1)
+    best, err = None, None
+    for grid, angles in RASTER_TRIALS[:max(int(trials), 1)]:
+        try:
+            r = raster_pack(uvs, faces, padding=padding, resolution=resolution, texel_density=texel_density,
+                            grid=grid, angles=angles if rotate else 1)
+        except ValueError as exc:
+            err = exc
+            continue
+        if best is None or (-int(r.pages.max()), r.utilisation) > (-int(best.pages.max()), best.utilisation):
+            best = r
+    if best is None:
+        raise err
+    return best
+
+
+def xatlas_shape_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", tolerance=0.005,
+                      texel_density=None, supersample=1, trials=4):
+    """Pack charts by their shapes with xatlas's placement, at the largest common scale that fits.
 
     xatlas's packer places each chart's rasterised shape (not its bounding box);
     we search the texel density (texels per UV unit, the same for every chart) by
@@ -339,7 +642,7 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
     Examples
     --------
     >>> sq = np.array([[0., 0], [1, 0], [1, 1], [0, 1]]); q = np.array([[0, 1, 2], [0, 2, 3]])
-    >>> res = tight_pack([sq, 2 * sq, sq], [q, q, q], padding=4, resolution=128)
+    >>> res = xatlas_shape_pack([sq, 2 * sq, sq], [q, q, q], padding=4, resolution=128)
     >>> res.padding_texels >= 4, round(res.utilisation, 2) > 0.5
     (True, True)
     """
@@ -352,7 +655,7 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
             turns = (np.zeros(len(uvs), int) if t == 0 else np.ones(len(uvs), int) if t == 1
                      else np.random.default_rng(t).integers(0, 4, len(uvs)))
             try:
-                r = tight_pack([u @ _QUARTER[q] for u, q in zip(uvs, turns)], faces, **kw)
+                r = xatlas_shape_pack([u @ _QUARTER[q] for u, q in zip(uvs, turns)], faces, **kw)
             except ValueError as exc:
                 err = exc
                 continue
@@ -364,9 +667,9 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="auto", 
     if brute_force == "auto":
         kw = dict(padding=padding, resolution=resolution, tolerance=tolerance, texel_density=texel_density,
                   supersample=supersample, trials=1)
-        tries = [tight_pack(uvs, faces, brute_force=False, **kw)]
+        tries = [xatlas_shape_pack(uvs, faces, brute_force=False, **kw)]
         if len(uvs) <= 600:
-            tries.append(tight_pack(uvs, faces, brute_force=True, **kw))
+            tries.append(xatlas_shape_pack(uvs, faces, brute_force=True, **kw))
         return max(tries, key=lambda r: (-int(r.pages.max()), r.utilisation))
     uvs = [np.asarray(u, float) for u in uvs]
     faces = [np.asarray(f, np.int64) for f in faces]

@@ -15,7 +15,8 @@ Conventions shared by every figure:
 - the checkerboard's frequency follows the mesh (:func:`checker_count`: about
   four mean UV edge lengths per check).
 
-The interactive film of a solve (:func:`plotly_solve_slider`) needs plotly;
+The interactive film of a solve (:func:`plotly_solve_slider`) and the linked
+surface/UV views (:func:`plotly_linked_views`: hover a face, it is outlined in both) need plotly;
 :func:`show_plotly` embeds plotly.js in the output, so it also works offline
 and in the static book.
 """
@@ -30,7 +31,8 @@ __all__ = [
     "plot_checkerboard_transfer", "plot_face_heatmap", "plot_trace",
     "save_uv_layout", "save_checkerboard_transfer", "plot_alignment_curves", "plot_routes", "plot_repair", "ROUTE_COLORS",
     "camera_view", "checker_count", "detj_norm", "DETJ_CMAP", "DETJ_FOLD_COLOR", "scalar_colors", "face_detj",
-    "plot_surface_and_uv", "solve_filmstrip", "plotly_solve_slider", "show_plotly", "live_view",
+    "plot_surface_and_uv", "solve_filmstrip", "plotly_solve_slider", "plotly_linked_views", "LINKED_HOVER_JS",
+    "show_plotly", "live_view",
 ]
 
 
@@ -927,6 +929,120 @@ def plotly_solve_slider(film, *, max_frames=24, vmax=3.0, surface=True, height=5
     return fig
 
 
+#: JavaScript run after a :func:`plotly_linked_views` figure is drawn (``{plot_id}`` is the
+#: figure's div): hovering a face in either view outlines it in both (the two outline
+#: traces are the figure's last two).
+LINKED_HOVER_JS = """
+(function () {
+  var gd = document.getElementById('{plot_id}');
+  if (!gd || !gd.on) { return; }
+  var n = gd.data.length, surf = 0, uv = 1;
+  function corners(t, f) {
+    var d = gd._fullData[t], x = [], y = [], z = [];
+    [d.i[f], d.j[f], d.k[f], d.i[f]].forEach(function (v) {
+      x.push(d.x[v]); y.push(d.y[v]); z.push(d.z ? d.z[v] : 0);
+    });
+    return [x, y, z];
+  }
+  gd.on('plotly_hover', function (ev) {
+    var p = ev.points && ev.points[0];
+    if (!p || (p.curveNumber !== surf && p.curveNumber !== uv)) { return; }
+    var f = p.pointNumber, a = corners(surf, f), b = corners(uv, f);
+    Plotly.restyle(gd, {x: [a[0], b[0]], y: [a[1], b[1]], z: [a[2], b[2]], visible: [true, true]}, [n - 2, n - 1]);
+  });
+  gd.on('plotly_unhover', function () {
+    Plotly.restyle(gd, {visible: [false, false]}, [n - 2, n - 1]);
+  });
+})();
+"""
+
+
+def plotly_linked_views(V, F, UV, FUV=None, *, values=None, label="det J", hover=None, vmax=3.0, cmap="Viridis",
+                        height=480, title=None):
+    """The surface and its UV layout side by side; hovering a face outlines it in both views.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array, optional
+        Per-corner UV indices (default ``F``).
+    values : (m,) float array, optional
+        Per-face colour (default det J, on the diverging det J scale with det ≤ 0 red).
+    label : str
+        Colourbar title of ``values``.
+    hover : dict of str -> (m,) array, optional
+        Extra per-face quantities listed in the hover label (e.g. ``{"σ1": smax}``).
+    vmax : float
+        Top of the det J scale (when ``values`` is None).
+    cmap : str
+        plotly colour scale of ``values``.
+
+    Returns
+    -------
+    plotly.graph_objects.Figure
+        Show it with :func:`show_plotly`, which adds :data:`LINKED_HOVER_JS`
+        (marked in ``fig.layout.meta``): the outlines follow the mouse in a
+        notebook and in the static book alike.
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> V, F = disk(2)
+    >>> fig = plotly_linked_views(V, F, V[:, :2], hover={"area": np.ones(len(F))})
+    >>> [t.type for t in fig.data], fig.layout.meta["linked_hover"]
+    (['mesh3d', 'mesh3d', 'scatter3d', 'scatter3d'], True)
+    """
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    V = np.asarray(V, np.float32)
+    F = np.asarray(F, np.int32)
+    FUV = F if FUV is None else np.asarray(FUV, np.int32)
+    UV = np.asarray(UV, np.float32)
+    det = face_detj(V, F, UV, FUV)
+    flat = dict(flatshading=True, lighting=dict(ambient=1.0, diffuse=0.0, specular=0.0, roughness=1.0, fresnel=0.0),
+                intensitymode="cell")
+    if values is None:
+        scale, tickvals, ticktext = _plotly_detj_scale(vmax)
+        color = dict(intensity=_plotly_detj(det, vmax), colorscale=scale, cmin=0.0, cmax=1.0)
+        cbar = dict(title=dict(text="det J"), tickvals=tickvals, ticktext=ticktext, len=0.8)
+    else:
+        vals = np.asarray(values, np.float32)
+        color = dict(intensity=vals, colorscale=cmap, cmin=float(np.nanmin(vals)), cmax=float(np.nanmax(vals)))
+        cbar = dict(title=dict(text=label), len=0.8)
+    rows = {"det J": det} if values is None else {label: np.asarray(values), "det J": det}
+    rows.update(hover or {})
+    text = ["face %d<br>" % f + "<br>".join(f"{k} {v[f]:.4g}" for k, v in rows.items()) for f in range(len(F))]
+    fig = make_subplots(rows=1, cols=2, specs=[[{"type": "scene"}] * 2], horizontal_spacing=0.02,
+                        subplot_titles=("surface", "UV layout"))
+    fig.add_trace(go.Mesh3d(x=V[:, 0], y=V[:, 1], z=V[:, 2], i=F[:, 0], j=F[:, 1], k=F[:, 2], hovertext=text,
+                            hoverinfo="text", showscale=False, name="surface", **color, **flat), row=1, col=1)
+    fig.add_trace(go.Mesh3d(x=UV[:, 0], y=UV[:, 1], z=np.zeros(len(UV), np.float32), i=FUV[:, 0], j=FUV[:, 1],
+                            k=FUV[:, 2], hovertext=text, hoverinfo="text", showscale=True, colorbar=cbar, name="UV",
+                            **color, **flat), row=1, col=2)
+    outline = dict(mode="lines", line=dict(color="#d62728", width=7), hoverinfo="skip", visible=False,
+                   showlegend=False)
+    fig.add_trace(go.Scatter3d(x=[0.0], y=[0.0], z=[0.0], **outline), row=1, col=1)
+    fig.add_trace(go.Scatter3d(x=[0.0], y=[0.0], z=[0.0], **outline), row=1, col=2)
+    hidden = dict(visible=False, showbackground=False)
+    pos, focal, up = (np.asarray(x) for x in camera_view(V, F=F))
+    d = (pos - focal) / np.linalg.norm(pos - focal)
+    lo, hi = UV.min(0), UV.max(0)
+    ext = np.maximum(hi - lo, 1e-12)
+    fig.update_layout(
+        height=height, margin=dict(l=10, r=10, t=50, b=10), title_text=title, meta={"linked_hover": True},
+        scene=dict(xaxis=hidden, yaxis=hidden, zaxis=hidden, aspectmode="data",
+                   camera=dict(eye=dict(zip("xyz", map(float, 1.6 * d))), up=dict(zip("xyz", map(float, up))),
+                               projection=dict(type="orthographic"))),
+        scene2=dict(xaxis=hidden, yaxis=hidden, zaxis=dict(range=[-1, 1], **hidden), aspectmode="manual",
+                    aspectratio=dict(x=float(ext[0] / ext.max()), y=float(ext[1] / ext.max()), z=0.01),
+                    camera=dict(eye=dict(x=0, y=0, z=2.0), up=dict(x=0, y=1, z=0),
+                                projection=dict(type="orthographic")), dragmode="pan"))
+    return fig
+
+
 def show_plotly(fig, *, include_plotlyjs=True):
     """Display a plotly figure as self-contained HTML (plotly.js embedded: offline, and in the static book).
 
@@ -935,8 +1051,10 @@ def show_plotly(fig, *, include_plotlyjs=True):
     cannot reach; embedding it costs about 4.5 MB in the notebook's output.
     Returns the IPython ``HTML`` object (displayed when IPython is running).
     """
+    meta = fig.layout.meta if isinstance(fig.layout.meta, dict) else {}
     html = fig.to_html(include_plotlyjs=include_plotlyjs, full_html=False, auto_play=False,
-                       config={"displaylogo": False, "responsive": True})
+                       config={"displaylogo": False, "responsive": True},
+                       post_script=LINKED_HOVER_JS if meta.get("linked_hover") else None)
     try:
         from IPython.display import HTML, display
     except ImportError:  # pragma: no cover - no IPython

@@ -111,7 +111,7 @@ class AtlasResult:
 
 def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="tight", seed=0, device="auto",
                 max_cost=4.0, merge=True, merge_faces=8, merge_curvature=0.2, texel_density=None, orient="compact",
-                stack=False, pack_trials=4, time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
+                stack=False, pack_trials=2, time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
     """Build a validated UV atlas of a whole (possibly messy) mesh.
 
     Parameters
@@ -124,8 +124,8 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         Target texture resolution the padding refers to.
     padding : float
         Minimum gap between islands (and to the border) in texels.
-    packer : ``"tight"`` (default: charts' shapes placed by xatlas at the largest common
-        density that fits, :func:`~neuraluv.packing.tight_pack`), ``"shelf"`` (the paper's
+    packer : ``"tight"`` (default: charts' rasterised shapes placed largest first at the
+        largest common density that fits, :func:`~neuraluv.packing.tight_pack`), ``"shelf"`` (the paper's
         area-scaled shelf packer of bounding boxes) or ``"xatlas"`` (xatlas's packer on the
         charts' bounding boxes).
     seed : int
@@ -151,9 +151,9 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         (:func:`stack_groups`) are packed once and the copies lie exactly on the first
         one. Validation counts them as ``stacked_islands``, not as overlaps.
     pack_trials : int
-        Packings the ``tight`` packer tries with the islands turned by quarter turns
-        (:func:`~neuraluv.packing.tight_pack`); more trials pack fuller on average at
-        a few seconds each.
+        Packings the ``tight`` packer tries (raster settings of
+        :data:`~neuraluv.packing.RASTER_TRIALS`, :func:`~neuraluv.packing.tight_pack`);
+        the fullest is kept. More trials pack fuller on average at a few seconds each.
     min_height : float
         Sliver threshold of :func:`prepare_mesh` (relative to the diagonal).
     time_budget : float, optional
@@ -298,7 +298,7 @@ def stack_groups(V, islands, rtol=1e-4):
 
 
 def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orient="compact", stack=False,
-          pack_trials=4):
+          pack_trials=2):
     """Pack the charts' islands at one texel density and assemble per-corner UVs for ``m`` faces.
 
     Every island is first scaled so its UV area equals its 3D area (one texel density
@@ -324,7 +324,7 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
         try:
             packed = tight_pack(uvs, fl, padding=padding, resolution=resolution,
                                 texel_density=None if texel_density is None else texel_density * unit,
-                                trials=pack_trials)
+                                trials=pack_trials, rotate=orient != "upright")
         except ValueError as exc:
             if texel_density is not None:
                 raise NeuralUVError(str(exc)) from None
@@ -398,7 +398,7 @@ def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=No
     resolution = res.info["resolution"] if resolution is None else resolution
     orient = res.info.get("orient", "compact")
     stack = res.info.get("stack", False)
-    trials = res.info.get("pack_trials", 4) if pack_trials is None else pack_trials
+    trials = res.info.get("pack_trials", 2) if pack_trials is None else pack_trials
     UV, FUV, fc, fr, packed = _pack(res.charts, res.V, len(res.F), packer, padding, resolution, orient=orient,
                                     stack=stack, pack_trials=trials)
     info = dict(res.info, **_pack_info(packed, packer, padding, resolution, None, orient, stack))

@@ -50,9 +50,9 @@ def _packing_options(a):
                    help="compact (default: each island turned to its smallest box) or upright (its main axis along U)")
     a.add_argument("--no-merge", action="store_true",
                    help="keep xatlas's small charts instead of merging them into neighbours (more, smaller islands)")
-    a.add_argument("--pack-trials", type=positive_int, default=4,
-                   help="packings the tight packer tries with the islands turned by quarter turns; more trials pack "
-                        "fuller on average, a few seconds each (default 4)")
+    a.add_argument("--pack-trials", type=positive_int, default=2,
+                   help="packings the tight packer tries (raster grid and rotation settings, up to 4); the fullest is "
+                        "kept; more trials pack fuller on average, a few seconds each (default 2)")
     a.add_argument("--stack", action="store_true",
                    help="identical islands (same triangulation, congruent in 3D, e.g. instanced parts) share one place "
                         "in the texture; validation counts them as stacked, not as overlaps")
