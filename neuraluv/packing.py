@@ -534,7 +534,7 @@ def _xatlas_place(start, allf, tpu, pad, resolution, brute_force):
 RASTER_TRIALS = ((512, 4), (256, 8), (384, 4), (256, 12))
 
 #: Above this many islands ``tight_pack(method="auto")`` places the shapes with xatlas (faster there).
-RASTER_MAX_ISLANDS = 300
+RASTER_MAX_ISLANDS = 1000
 
 
 def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, trials=2, rotate=True,
