@@ -77,7 +77,7 @@ bench-quick: install data
 # Every table of the paper in quick mode (tiny budgets, small inputs; minutes): checks that each
 # runner works end to end; writes to .cache/reproduce-quick, never to results/.
 QUICK_OUT ?= .cache/reproduce-quick
-REPRODUCE_BENCHES := compact failure-modes ablation ntk charts pareto speed atlas-quality repair baselines
+REPRODUCE_BENCHES := compact failure-modes ablation ntk charts pareto speed atlas-quality repair baselines generated
 reproduce-quick: install data
 	@for b in $(REPRODUCE_BENCHES); do \
 	  echo "== neuraluv bench $$b --quick"; \
@@ -98,6 +98,7 @@ reproduce: install data
 	$(BIN)/neuraluv bench pareto --preset paper --budgets 500 750 1000 5000 --sets compact xatlas --resume -o $(RESULTS)/pareto
 	$(BIN)/neuraluv bench baselines --optcuts-sample 10 -o $(RESULTS)/baselines
 	$(BIN)/neuraluv bench atlas-quality --threads 1 -o $(RESULTS)/atlas
+	$(BIN)/neuraluv bench generated --assets 25 --sweep 500 --resume -o $(RESULTS)/generated
 	$(BIN)/neuraluv bench repair -o $(RESULTS)/repair
 	$(BIN)/neuraluv bench speed -o $(RESULTS)/speed
 

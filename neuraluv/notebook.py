@@ -221,11 +221,11 @@ PAPER_TABLES = (
     dict(number=6, label="tab:runtime_pareto", title="runtime–quality Pareto sweep (CUDA)",
          results=None, runner="pareto"),
     dict(number=7, label="tab:amara_coverage_validity", title="Amara coverage and validity",
-         results=None, runner=None),
+         results=None, runner="generated"),
     dict(number=8, label="tab:amara_blender_methods", title="Blender chart-level baselines on Amara",
-         results=None, runner=None),
+         results=None, runner="generated"),
     dict(number=9, label="tab:amara_large_sweep", title="larger Amara atlas runs (Rust implementation)",
-         results=None, runner=None),
+         results=None, runner="generated"),
 )
 
 #: Which checklist rows each chapter touches: (report file, a substring of the
@@ -342,7 +342,7 @@ def parse_findings(text, source=None, table=None):
 
 
 def findings(root=None):
-    """Every claim of every committed ``results/*/table*.md`` findings block, in the paper's table order.
+    """Every claim of every committed ``results/*/table*.md`` (and ``amara_*.md``) findings block, in the paper's table order.
 
     Returns
     -------
@@ -351,7 +351,7 @@ def findings(root=None):
     """
     root = results_dir() if root is None else Path(root)
     out = []
-    for path in sorted(root.glob("*/table*.md")):
+    for path in sorted([*root.glob("*/table*.md"), *root.glob("*/amara_*.md")]):
         source = path.relative_to(root).as_posix()
         t = _table_of(source)
         out += parse_findings(path.read_text(encoding="utf-8"), source, t["number"] if t else None)

@@ -151,6 +151,16 @@ def test_blender_unwraps_from_loop_uvs():
     assert r.status == "ok" and r.metrics["n_faces"] == 80 and r.metrics["flips"] == 0
 
 
+@pytest.mark.skipif(blender_python() is None, reason="Blender's bpy not installed (`make blender-env`, or set NEURALUV_BPY_PYTHON to a Python with `pip install 'bpy==4.5.*'`)")
+def test_blender_row_counts_flips_on_loop_uvs():
+    from neuraluv.bench.generated import blender_row
+
+    V, F = datasets.spherical_cap(n_rings=5)
+    r = blender_row(V, F, "blender-conformal")
+    assert r["status"] == "ok" and r["flips"] == 0 and r["coverage"] == 1.0 and r["degenerate"] == 0
+    assert abs(r["conformal"] - run_baseline("lscm", V, F).metrics["conformal"]) < 0.01  # the one metric definition
+
+
 def test_neural_wrapper_returns_the_same_type():
     V, F = datasets.several_components(3)
     r = run_baseline("neural", V, F, preset="test", device="cpu", iterations=5, warmup_iters=5)

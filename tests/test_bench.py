@@ -65,7 +65,7 @@ def test_machine_line_names_the_machine():
 def test_cli_lists_every_benchmark(capsys):
     assert main(["bench", "--help"]) == 0
     out = capsys.readouterr().out
-    for name in ("compact", "failure-modes", "ablation", "pareto", "charts", "ntk", "speed", "repair"):
+    for name in ("compact", "failure-modes", "ablation", "pareto", "charts", "ntk", "speed", "repair", "generated"):
         assert name in out
 
 
@@ -191,6 +191,21 @@ def test_pareto_quick(tmp_path):
     s = res.extra["summary"]
     assert [x["iterations"] for x in s] == [5, 15] and all(x["n"] == 1 for x in s)
     assert "1/1" in res.markdown and (tmp_path / "pareto.png").stat().st_size > 1000
+
+
+def test_generated_quick_counts_coverage_routes_and_marks_blender_not_run(tmp_path, monkeypatch):
+    from neuraluv.bench.generated import bench
+
+    monkeypatch.setenv("NEURALUV_BPY_PYTHON", str(tmp_path / "no-python"))  # as in CI: no bpy
+    res = bench(1, quick=True, output=tmp_path, show_progress=False, device="cpu")
+    ours = [r for r in res.rows if r["method"] == "ours"][0]
+    assert ours["status"] == "ok" and ours["coverage"] == 1.0 and ours["flips"] == 0
+    assert abs(ours["neural_share"] + ours["exact_share"] + ours["fallback_share"] - 1) < 1e-9
+    assert {r["status"] for r in res.rows if r["method"] != "ours"} == {"unavailable"}
+    verdicts = {claim: holds for claim, holds, _ in res.findings}
+    assert verdicts["the full atlas path covers every repaired face with zero local flips"] is True
+    assert any(holds is None and "Blender" in claim for claim, holds, _ in res.findings)
+    assert (tmp_path / "amara_coverage_validity.md").exists() and (tmp_path / "amara_blender_methods.md").exists()
 
 
 def test_cli_bench_runs_and_resumes(tmp_path, capsys):
