@@ -1,11 +1,15 @@
 """The notebooks' one runtime switch: quick (CI) runs or paper-scale runs.
 
 Every notebook in ``notebooks/`` runs in about a minute on a 2-core CPU by
-default: small procedural charts, the ``"test"`` preset or short budgets, fixed
-seeds. Setting the environment variable ``NEURALUV_PAPER_SCALE=1`` before
-starting Jupyter (or ``make book``) switches every notebook to the paper's
-settings (the ``"paper"`` preset, the compact real charts when they are
-cached). Notebooks choose between the two with :func:`budget`.
+default: the real compact charts (Camel, Hand, Bob; :func:`load_chart`) wherever
+the lesson is a real failure, the real ``"fast"`` preset or short budgets, fixed
+seeds; procedural charts only where a construction is the point, or as stand-ins
+when the real meshes are not cached. Setting the environment variable
+``NEURALUV_PAPER_SCALE=1`` before starting Jupyter (or ``make book``) switches
+every notebook to the paper's settings (the ``"paper"`` preset, the compact real
+charts). Notebooks choose between the two with :func:`budget`, and print the
+committed reference points beside their own numbers with :func:`reference`
+(e.g. SLIM-1k on the same chart).
 
 The module also keeps the notebooks quiet (:func:`setup` routes VTK to an
 off-screen EGL window when there is no display and imports tqdm without its
@@ -26,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "quiet_environment",
+__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "reference", "quiet_environment",
            "PAPER_TABLES", "CHAPTER_CLAIMS", "Claim", "results_dir", "parse_findings", "findings", "checklist",
            "claims_page"]
 
@@ -186,17 +190,67 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
             return datasets.procedural(quick, **quick_kwargs)
         return datasets.load(quick)
 
-    if not paper_scale():
+    if paper_scale():
         try:
-            return (quick, *_quick())
+            return (paper, *datasets.load(paper))
         except datasets.DataMissing as err:
-            print(f"{err}: using the procedural 'glove' chart instead")
-            return ("glove", *datasets.glove())
+            if quick == paper:
+                print(f"{err}: using the procedural 'glove' chart instead")
+                return ("glove", *datasets.glove())
+            print(f"{err}: using the {quick!r} chart instead")
     try:
-        return (paper, *datasets.load(paper))
-    except datasets.DataMissing as err:
-        print(f"{err}: using the procedural {quick!r} chart instead")
         return (quick, *_quick())
+    except datasets.DataMissing as err:
+        print(f"{err}: using the procedural 'glove' chart instead")
+        return ("glove", *datasets.glove())
+
+
+def reference(mesh, method="slim-1k", root=None):
+    """A committed Table 1 row: the reference point a notebook prints beside its own run.
+
+    Reads ``results/compact/table2_compact.csv`` (``neuraluv bench compact
+    --preset paper``; the paper's Table 1), so a notebook can set, e.g., SLIM-1k
+    on the same chart beside its number without spending the 20–40 s SLIM-1k
+    takes on Hand.
+
+    Parameters
+    ----------
+    mesh : str
+        ``"hand"``, ``"bob"`` or ``"camel"``.
+    method : str
+        The table's method name (``"slim-1k"``, ``"lscm"``, ``"bff"``,
+        ``"neural"`` for our ``paper`` preset, ...).
+    root : path, optional
+        The ``results/`` folder (default :func:`results_dir`).
+
+    Returns
+    -------
+    dict or None
+        ``esd``, ``flips``, ``flip_percent``, ``min_det``, ``time`` (floats) and
+        ``status``; None when the report or the row is missing (an installed
+        package, or a procedural stand-in chart).
+
+    Examples
+    --------
+    >>> reference("camel", root="/nonexistent") is None
+    True
+    >>> r = reference("camel")
+    >>> r is None or (r["status"] == "ok" and r["flips"] == 0 and r["esd"] > 4)
+    True
+    """
+    import csv
+
+    path = (results_dir() if root is None else Path(root)) / "compact" / "table2_compact.csv"
+    if not path.is_file():
+        return None
+    with open(path, newline="", encoding="utf-8") as fh:
+        row = next((r for r in csv.DictReader(fh)
+                    if (r["mesh"], r["mode"], r["method"]) == (mesh, "whole", method)), None)
+    if row is None:
+        return None
+    num = {k: float(row[k]) if row[k] not in ("", "nan") else float("nan")
+           for k in ("esd", "flips", "flip_percent", "min_det", "time")}
+    return {**num, "status": row["status"]}
 
 
 # ----------------------------------------------------------------- the claims checklist
@@ -232,6 +286,8 @@ PAPER_TABLES = (
 #: claim as the committed report words it) or the paper's table number for a
 #: table without a committed report. ``"08"`` shows every row.
 CHAPTER_CLAIMS = {
+    "00": [("compact/table2_compact.md", "Camel: SLIM-1k is zero-flip and the better fixed-chart solver"),
+           ("failure-modes/table3_failure_modes.md", "Camel / SLIM-1k")],
     "00b": [("compact/table2_compact.md", "only ours is foldover-free"),
             ("compact/table2_compact.md", "Camel: LSCM and ARAP still fold")],
     "01": [("ablation/table4_ablation.md", "Removing LBO features"),
@@ -253,6 +309,10 @@ CHAPTER_CLAIMS = {
     "04": [("compact/table2_compact.md", "only ours is foldover-free"),
            ("compact/table2_compact.md", "slower than LSCM"),
            ("charts/table6_charts.md", "valid on most xatlas charts"), 6],
+    "05": [("compact/table2_compact.md", "only ours is foldover-free"),
+           ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold"),
+           ("compact/table2_compact.md", "Bob: "), ("compact/table2_compact.md", "Camel: "),
+           ("failure-modes/table3_failure_modes.md", "")],
     "06": [("ntk/table5.md", ""), ("ablation/table4_ablation.md", "bandwidth rows")],
     "07": [("charts/table6_charts.md", "valid on most xatlas charts"), 7, 8, 9],
     "09": [("compact/table2_compact.md", "Camel: LSCM and ARAP still fold"),
