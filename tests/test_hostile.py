@@ -257,8 +257,11 @@ def test_signals_stop_quickly_and_leave_no_output(tmp_path, sig, code):
     p = tmp_path / "glove.obj"
     write_obj(p, V, F, np.zeros((len(V), 2)))
     out = tmp_path / "o.obj"
+    # a shell that runs the suite in the background (`make test &`) ignores SIGINT for its children, and Python
+    # keeps an inherited SIG_IGN: give the child the default disposition a user's terminal gives it (Ctrl-C)
     proc = subprocess.Popen([sys.executable, "-m", "neuraluv", "unwrap", str(p), "-o", str(out), "--quiet",
-                             "--preset", "paper", "--time-budget", "0"], stderr=subprocess.PIPE, text=True)
+                             "--preset", "paper", "--time-budget", "0"], stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     _wait_until_busy(proc, cpu_seconds=3.0)  # torch imported, solving (CPU time, not wall time: CI may be loaded)
     t = time.perf_counter()
     proc.send_signal(sig)
