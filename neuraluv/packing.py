@@ -578,11 +578,18 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
     if method == "xatlas" or (method == "auto" and len(uvs) > RASTER_MAX_ISLANDS):
         return xatlas_shape_pack(uvs, faces, padding=padding, resolution=resolution, texel_density=texel_density,
                                  trials=trials if rotate else 1)
+    return _fullest(lambda g=grid, a=angles: raster_pack(uvs, faces, padding=padding, resolution=resolution,
+                                                         texel_density=texel_density, grid=g, angles=a if rotate else 1)
+                    for grid, angles in RASTER_TRIALS[:max(int(trials), 1)])
+
+
+def _fullest(makers):
+    """The fullest :class:`PackResult` (fewest pages first) the callables ``makers`` produce; re-raises the
+    last ``ValueError`` when none of them packs."""
     best, err = None, None
-    for grid, angles in RASTER_TRIALS[:max(int(trials), 1)]:
+    for make in makers:
         try:
-            r = raster_pack(uvs, faces, padding=padding, resolution=resolution, texel_density=texel_density,
-                            grid=grid, angles=angles if rotate else 1)
+            r = make()
         except ValueError as exc:
             err = exc
             continue
@@ -650,27 +657,15 @@ def xatlas_shape_pack(uvs, faces, *, padding=4.0, resolution=1024, brute_force="
         kw = dict(padding=padding, resolution=resolution, brute_force=brute_force, tolerance=tolerance,
                   texel_density=texel_density, supersample=supersample, trials=1)
         uvs = [np.asarray(u, float) for u in uvs]
-        best, err = None, None
-        for t in range(int(trials)):
-            turns = (np.zeros(len(uvs), int) if t == 0 else np.ones(len(uvs), int) if t == 1
-                     else np.random.default_rng(t).integers(0, 4, len(uvs)))
-            try:
-                r = xatlas_shape_pack([u @ _QUARTER[q] for u, q in zip(uvs, turns)], faces, **kw)
-            except ValueError as exc:
-                err = exc
-                continue
-            if best is None or (-int(r.pages.max()), r.utilisation) > (-int(best.pages.max()), best.utilisation):
-                best = r
-        if best is None:
-            raise err
-        return best
+        turns = [np.zeros(len(uvs), int), np.ones(len(uvs), int)] + \
+            [np.random.default_rng(t).integers(0, 4, len(uvs)) for t in range(2, int(trials))]
+        return _fullest(lambda q=q: xatlas_shape_pack([u @ _QUARTER[k] for u, k in zip(uvs, q)], faces, **kw)
+                        for q in turns[:int(trials)])
     if brute_force == "auto":
         kw = dict(padding=padding, resolution=resolution, tolerance=tolerance, texel_density=texel_density,
                   supersample=supersample, trials=1)
-        tries = [xatlas_shape_pack(uvs, faces, brute_force=False, **kw)]
-        if len(uvs) <= 600:
-            tries.append(xatlas_shape_pack(uvs, faces, brute_force=True, **kw))
-        return max(tries, key=lambda r: (-int(r.pages.max()), r.utilisation))
+        return _fullest(lambda b=b: xatlas_shape_pack(uvs, faces, brute_force=b, **kw)
+                        for b in ([False, True] if len(uvs) <= 600 else [False]))
     uvs = [np.asarray(u, float) for u in uvs]
     faces = [np.asarray(f, np.int64) for f in faces]
     hull = set()  # charts xatlas did not place rigidly: sent again as their convex hull
