@@ -93,8 +93,8 @@ reproduce: install data
 	$(BIN)/neuraluv bench compact --preset paper --resume -o $(RESULTS)/compact
 	$(BIN)/neuraluv bench failure-modes --preset paper --resume -o $(RESULTS)/failure-modes
 	$(BIN)/neuraluv bench ablation --preset paper --seeds 0 1 2 --resume -o $(RESULTS)/ablation
-	$(BIN)/neuraluv bench ntk --preset paper --trajectory --resume -o $(RESULTS)/ntk
-	$(BIN)/neuraluv bench charts --preset paper --iterations 1000 --resume -o $(RESULTS)/charts
+	$(BIN)/neuraluv bench ntk --full --trajectory -o $(RESULTS)/ntk
+	$(BIN)/neuraluv bench charts --preset paper --iterations 1000 --k0 --resume -o $(RESULTS)/charts
 	$(BIN)/neuraluv bench pareto --preset paper --budgets 500 750 1000 5000 --sets compact xatlas --resume -o $(RESULTS)/pareto
 	$(BIN)/neuraluv bench baselines --optcuts-sample 10 -o $(RESULTS)/baselines
 	$(BIN)/neuraluv bench atlas-quality --threads 1 -o $(RESULTS)/atlas

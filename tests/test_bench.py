@@ -169,19 +169,36 @@ def test_ablation_seeds_report_mean_and_spread_over_seeds(tmp_path):
 
 
 def test_charts_quick_strata_and_denominators(tmp_path):
-    from neuraluv.bench.charts import bench, select_charts, stratum
+    from neuraluv.bench.charts import FIRST_LABEL, SMALL_STRATA, bench, select_charts, stratum, subdivided_charts
 
-    res = bench(quick=True, output=tmp_path, show_progress=False)
+    res = bench(quick=True, output=tmp_path, show_progress=False, baselines=("bff",), k0=True)
     neural = [r for r in res.rows if r["method"] == "neural"]
-    assert len(neural) == 6 and len({r["stratum"] for r in neural}) == 2
+    strat = [r for r in neural if r["stratum"] != FIRST_LABEL]
+    assert len(strat) == 6 and len({r["stratum"] for r in strat}) == 2
+    first = [r for r in neural if r["stratum"] == FIRST_LABEL]  # the first-N sweep: the first 3 charts, disk-like ones
+    assert 1 <= len(first) <= 3 and all(r["source"] == "sphere" for r in first)
     summ = next(s for s in res.extra["summary"] if s["method"] == "neural" and s["subset"] == "all")
-    assert summ["tried"] == 6 and f"{summ['valid']}/6 (" in res.markdown
+    assert summ["tried"] == 6 and f"{summ['valid']}/6 (" in res.markdown  # the stratified set excludes the sweep
+    assert "xatlas first-3" in res.markdown and "stratified, all" in res.markdown
     assert "paper: Xatlas stratified" in res.markdown and "42/47 (89.4%)" in res.markdown
+    assert "280/287" in res.markdown  # the sweep's finding, against the paper's
+    k0 = [r for r in res.rows if r["method"] == "neural-k0"]  # k=0 on the stratified charts only
+    assert len(k0) == 6 and {r["chart"] for r in k0} == {r["chart"] for r in strat}
+    assert "k=16 solves at least as many charts validly as k=0" in res.markdown
+    # --from-log writes the table from the log alone; a job missing there is named, not computed
+    lines = (tmp_path / "rows.jsonl").read_text().splitlines()
+    (tmp_path / "rows.jsonl").write_text("\n".join(lines[:-1]) + "\n")
+    again = bench(quick=True, output=tmp_path, show_progress=False, baselines=("bff",), k0=True, resume=True, from_log=True)
+    assert len(again.rows) == len(res.rows) - 1 and "Not run (written from the log" in again.markdown
     # the selection spreads a budget over strata and hands leftovers on
     pool = [{"disk": True, "faces": f, "source": "s", "chart": i} for i, f in enumerate([20, 30, 40, 200, 5000])]
-    chosen = select_charts(pool, 4)
+    chosen = select_charts(pool, 4, SMALL_STRATA)
     assert len(chosen) == 4 and {c["stratum"] for c in chosen} == {"tens", "hundreds", "thousands"}
-    assert stratum(12000) == "tens of thousands"
+    assert stratum(12000) == "tens of thousands" and stratum(150000) == "hundreds of thousands"
+    # subdivided copies only above 10,000 faces, and only of disk-like charts of >= 1,000 faces
+    pool += [{"disk": False, "faces": 3000, "source": "s", "chart": 9}]
+    sub = subdivided_charts(pool)
+    assert [(c["chart"], c["faces"]) for c in sub] == [("4/s1", 20000), ("4/s2", 80000)]
 
 
 def test_pareto_quick(tmp_path):

@@ -220,7 +220,7 @@ def test_fragments_are_refused_by_unwrap_and_handled_by_atlas(tmp_path, capfd):
     code, _, err = _run(["atlas", p, "-o", tmp_path / "a.obj", *FAST], capfd)
     assert code == 0, err
     _valid_output(tmp_path / "a.obj")
-    assert time.perf_counter() - t < 60
+    assert time.perf_counter() - t < 240  # a hang guard, not a speed target (that is `neuraluv bench speed --atlas`)
 
 
 def test_time_budget_bounds_the_solve(tmp_path, capfd):

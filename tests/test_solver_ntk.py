@@ -224,3 +224,19 @@ def test_bench_runner_writes_table(tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "table5.csv")))
     assert len(rows) == 5 and all(0 <= float(r["S16"]) <= 1 for r in rows)
     assert {r["S16_paper"] for r in rows} >= {"0.716", "0.527"}
+
+
+def test_trajectory_probe_rows_correlations_and_claims():
+    from neuraluv.bench.ntk import trajectory_probe
+
+    pr = trajectory_probe(2, (20, 2000), "test", 10, samples=24, device="cpu", show_progress=False, sources=["sphere"])
+    assert pr["charts"] == 2 and len(pr["runs"]) == 4  # recipe + random absolute init per chart
+    recipe = [r for r in pr["runs"] if r["run"] == "tutte-residual"]
+    assert all(r["ends_valid"] and r["flip_percent_final"] == 0 for r in recipe)  # the recipe's start is valid
+    events = {(r["event"], r["step"]) for r in pr["rows"] if r["chart"] == recipe[0]["chart"] and r["run"] == "tutte-residual"}
+    assert ("warmup_end", 0) in events and ("end", 10) in events and ("step", 5) in events
+    # no variance in the recipe's flip rate: correlations are nan there, and the claim is marked not tested
+    assert all(not np.isfinite(c["r"]) for c in pr["correlations"]
+               if c["subset"] == "recipe runs" and c["outcome"] == "flip_percent")
+    claims = {c[0].split(" (")[0]: c[1] for c in pr["checks"]}
+    assert claims["Early S(r) correlates only moderately with the final flip rate"] is None

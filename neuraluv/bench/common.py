@@ -16,7 +16,7 @@ METHODS = ["lscm", "arap", "slim-1k", "bff", "bff-cli", "neural", "optcuts",
            "blender-angle", "blender-conformal", "blender-minstretch", "blender-smart"]
 #: Display names.
 LABELS = {"harmonic": "Harmonic", "lscm": "LSCM", "arap": "ARAP", "slim-20": "SLIM-20", "slim-1k": "SLIM-1k",
-          "bff": "BFF", "bff-cli": "BFF v1.6 binary", "neural": "Ours", "optcuts": "OptCuts (re-cut)", "xatlas": "xatlas (re-cut)",
+          "bff": "BFF", "bff-cli": "BFF v1.6 binary", "neural": "Ours", "neural-k0": "Ours, k=0", "optcuts": "OptCuts (re-cut)", "xatlas": "xatlas (re-cut)",
           "blender-smart": "Blender Smart UV (re-cut)", "blender-angle": "Blender Angle Based",
           "blender-conformal": "Blender Conformal", "blender-minstretch": "Blender Min. Stretch"}
 #: Methods that cut their own seams (not fixed-chart solvers).
