@@ -17,7 +17,8 @@ from neuraluv.jacobian import signed_areas_2d
 #: Packers of :func:`neuraluv.atlas.build_atlas` (the first is the default).
 PACKERS = ("tight", "shelf", "xatlas")
 
-__all__ = ["PACKERS", "PackResult", "shelf_pack", "rotate_to_min_box", "xatlas_pack", "raster_pack", "tight_pack", "xatlas_shape_pack", "island_density", "upright"]
+__all__ = ["PACKERS", "PackResult", "shelf_pack", "rotate_to_min_box", "xatlas_pack", "raster_pack", "tight_pack", "xatlas_shape_pack", "island_density", "upright",
+           "granular_islands", "halve_island"]
 
 
 @dataclass
@@ -34,6 +35,9 @@ class PackResult:
         ``resolution`` (inf for a single chart; None without a resolution).
     pages : (c,) int array or None, the texture page (UDIM tile) of each chart.
     packer : str, the packer that produced it (``"shelf"`` when ``"tight"`` fell back).
+    pieces : list of (int, (k,) int array, (n,) int array) or None, when :func:`tight_pack` packed
+        charts cut by :func:`granular_islands`: per packed piece its chart, faces (into the
+        chart's ``F``) and vertices (the rows of the chart's UVs that ``uvs[j]`` holds).
     """
 
     uvs: list
@@ -43,6 +47,7 @@ class PackResult:
     padding_texels: float | None = None
     pages: np.ndarray | None = None
     packer: str = ""
+    pieces: list | None = None
 
 
 def _layout(sizes, gap, width):
@@ -271,6 +276,94 @@ def island_density(uv, V, F):
     a3 = float(face_areas(np.asarray(V, float), F).sum())
     a2 = _poly_area(np.asarray(uv, float), F)
     return float(np.sqrt(a2 / a3)) if a3 > 0 and a2 > 0 else float("nan")
+
+
+#: :func:`granular_islands` halves islands holding more than this share of the total UV area.
+SPLIT_SHARE = 1 / 10
+
+
+def halve_island(uv, F):
+    """Cut an island in two across its main axis, keeping every face's UVs.
+
+    Faces go to either side of the median of their centroids' projection on the
+    principal axis of the UV centroids (a straight cut across the island's length);
+    each side is then split into its edge-connected pieces. The pieces keep the
+    island's UVs, so they are as flip-free and overlap-free as the island was: only
+    seams are added.
+
+    Parameters
+    ----------
+    uv : (n,2) float array
+    F : (m,3) int array
+
+    Returns
+    -------
+    list of (k_i,) int arrays
+        Face indices into ``F`` of each piece (together every face once).
+
+    Examples
+    --------
+    >>> uv = np.array([[0., 0], [1, 0], [2, 0], [3, 0], [0, 1], [1, 1], [2, 1], [3, 1]])
+    >>> F = np.array([[0, 1, 5], [0, 5, 4], [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6]])
+    >>> [p.tolist() for p in halve_island(uv, F)]
+    [[0, 1, 3], [2, 4, 5]]
+    """
+    from neuraluv.topology import face_components
+
+    F = np.asarray(F, np.int64)
+    if len(F) < 2:
+        return [np.arange(len(F))]
+    c = np.asarray(uv, float)[F].mean(1)
+    c = c - c.mean(0)
+    axis = np.linalg.svd(c, full_matrices=False)[2][0]
+    t = c @ axis
+    side = t > np.median(t)
+    if side.all() or not side.any():
+        return [np.arange(len(F))]
+    pieces = []
+    for s in (side, ~side):
+        idx = np.flatnonzero(s)
+        n, lab = face_components(F[idx])
+        pieces += [idx[lab == j] for j in range(n)]
+    return sorted(pieces, key=lambda p: int(p[0]))
+
+
+def granular_islands(uvs, faces, max_share=SPLIT_SHARE):
+    """Halve (:func:`halve_island`) every island holding more than ``max_share`` of the total UV area, until
+    none does: a few large islands leave gaps no packer can fill; smaller pieces nest.
+
+    Parameters
+    ----------
+    uvs : list of (n_i,2) float arrays
+        Islands at a common scale.
+    faces : list of (m_i,3) int arrays
+    max_share : float
+
+    Returns
+    -------
+    list of (int, (k,) int array)
+        ``(island, face indices)`` per piece, in island order; an island left whole is one piece.
+
+    Examples
+    --------
+    >>> sq = np.array([[0., 0], [1, 0], [1, 1], [0, 1]]); q = np.array([[0, 1, 2], [0, 2, 3]])
+    >>> [(i, f.tolist()) for i, f in granular_islands([sq, 0.1 * sq], [q, q], max_share=0.6)]
+    [(0, [1]), (0, [0]), (1, [0, 1])]
+    """
+    areas = [_poly_area(np.asarray(u, float), np.asarray(f)) for u, f in zip(uvs, faces)]
+    limit = max_share * sum(areas)
+    out = []
+    for i, (u, f) in enumerate(zip(uvs, faces)):
+        todo, f = [np.arange(len(f))], np.asarray(f)
+        while todo:
+            idx = todo.pop()
+            if len(idx) > 1 and _poly_area(u, f[idx]) > limit:
+                parts = halve_island(u, f[idx])
+                if len(parts) > 1:
+                    todo += [idx[p] for p in parts]
+                    continue
+            out.append((i, idx))
+    return out
 
 
 def _outlines(uv, f):
@@ -536,15 +629,24 @@ RASTER_TRIALS = ((512, 4), (256, 8), (384, 4), (256, 12))
 #: Above this many islands ``tight_pack(method="auto")`` places the shapes with xatlas (faster there).
 RASTER_MAX_ISLANDS = 1000
 
+#: Utilisation (absolute) the cut charts of ``tight_pack(split=...)`` must gain to be kept: cuts add seams.
+SPLIT_GAIN = 0.01
+
 
 def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, trials=2, rotate=True,
-               method="auto"):
+               method="auto", split=None, xyz=None):
     """Pack charts by their shapes at the largest common scale that fits the texture, with exact padding.
 
     The fullest of ``trials`` packings is kept: :func:`raster_pack` with the settings
     of :data:`RASTER_TRIALS` (up to :data:`RASTER_MAX_ISLANDS` islands), or xatlas's
     shape placement with quarter-turn trials (:func:`xatlas_shape_pack`) for more
     islands or with ``method="xatlas"``.
+
+    With ``split`` (a share, e.g. :data:`SPLIT_SHARE`), when a chart holds more than
+    that share of the total UV area the charts are also packed cut by
+    :func:`granular_islands` (a few large islands leave gaps no placement can fill),
+    and that packing is kept when it is fuller by at least :data:`SPLIT_GAIN` on no
+    more pages; its ``pieces`` then say which part of which chart each packed island is.
 
     Parameters
     ----------
@@ -561,10 +663,17 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
     rotate : bool
         Turn charts to nest them (proper rotations only); False keeps each as given.
     method : ``"auto"``, ``"raster"`` or ``"xatlas"``
+    split : float, optional
+        Largest share of the total UV area one packed island may hold before a cut
+        packing is tried (None: charts are packed whole).
+    xyz : list of (n_i,3) float arrays, optional
+        The charts' 3D vertices: each cut part is then scaled to its own texel density
+        (:func:`island_density`; the charts are assumed at one density already), so the
+        density spread across packed islands stays that of whole charts.
 
     Returns
     -------
-    PackResult (with ``pages``)
+    PackResult (with ``pages``; ``pieces`` when the cut packing was kept)
 
     Examples
     --------
@@ -575,6 +684,29 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
     """
     if method not in ("auto", "raster", "xatlas"):
         raise ValueError(f"unknown method {method!r}: use 'auto', 'raster' or 'xatlas'")
+    kw = dict(padding=padding, resolution=resolution, texel_density=texel_density, trials=trials, rotate=rotate,
+              method=method)
+    whole = _tight_pack(uvs, faces, **kw)
+    if not split:
+        return whole
+    from neuraluv.topology import submesh
+
+    pieces = granular_islands(uvs, faces, split)
+    if len(pieces) == len(uvs):
+        return whole
+    parts = [(i, idx, *submesh(faces[i], idx)) for i, idx in pieces]
+    puvs = [np.asarray(uvs[i], float)[vi] for i, _, vi, _ in parts]
+    if xyz is not None:
+        d = [island_density(u, np.asarray(xyz[i], float)[vi], f) for u, (i, _, vi, f) in zip(puvs, parts)]
+        puvs = [u / di if np.isfinite(di) and di > 0 else u for u, di in zip(puvs, d)]
+    cut = _tight_pack([rotate_to_min_box(u) for u in puvs] if rotate else puvs, [f for *_, f in parts], **kw)
+    if int(cut.pages.max()) > int(whole.pages.max()) or cut.utilisation < whole.utilisation + SPLIT_GAIN:
+        return whole
+    cut.pieces = [(i, idx, vi) for i, idx, vi, _ in parts]
+    return cut
+
+
+def _tight_pack(uvs, faces, *, padding, resolution, texel_density, trials, rotate, method):
     if method == "xatlas" or (method == "auto" and len(uvs) > RASTER_MAX_ISLANDS):
         return xatlas_shape_pack(uvs, faces, padding=padding, resolution=resolution, texel_density=texel_density,
                                  trials=trials if rotate else 1)

@@ -244,3 +244,78 @@ def test_bench_atlas_quality_cli_writes_the_table(tmp_path, capsys):
     assert rc == 0 and "| glove |" in out and "ours + tight" in out
     md = (tmp_path / "atlas_quality.md").read_text()
     assert "Acceptance" in md and "xatlas (own charts + packer)" in md
+
+
+def _strip(n, width=1.0):
+    """A long (n,1) strip of 2n triangles in the plane: its own UVs and 3D positions."""
+    x = np.repeat(np.arange(n + 1, dtype=float), 2)
+    y = np.tile([0.0, width], n + 1)
+    uv = np.column_stack([x, y])
+    F = np.array([[2 * i, 2 * i + 2, 2 * i + 3] for i in range(n)] + [[2 * i, 2 * i + 3, 2 * i + 1] for i in range(n)])
+    return uv, F
+
+
+def test_granular_islands_cut_only_the_large_islands_into_connected_parts():
+    from neuraluv.packing import granular_islands, halve_island
+    from neuraluv.topology import face_components
+
+    big, Fb = _strip(40)
+    small, Fs = _strip(2)
+    pieces = granular_islands([big, small], [Fb, Fs], max_share=0.2)
+    assert [i for i, _ in pieces].count(1) == 1  # the small strip (2% of the area) stays whole
+    parts = [idx for i, idx in pieces if i == 0]
+    assert sorted(np.concatenate(parts).tolist()) == list(range(len(Fb)))  # every face in exactly one part
+    total = np.abs(signed_areas_2d(big, Fb)).sum() + np.abs(signed_areas_2d(small, Fs)).sum()
+    for idx in parts:
+        assert face_components(Fb[idx])[0] == 1  # edge-connected
+        assert np.abs(signed_areas_2d(big, Fb[idx])).sum() <= 0.2 * total
+    assert 5 <= len(parts) <= 8  # halving 40/41 of the area down to <= 1/5: 8 parts at most, no over-cutting
+    a, b = halve_island(big, Fb)  # a straight cut across the strip's length: two halves of 40 faces
+    assert len(a) == len(b) == 40 and big[Fb[a]][..., 0].max() <= big[Fb[b]][..., 0].min() + 1e-12 or \
+        big[Fb[b]][..., 0].max() <= big[Fb[a]][..., 0].min() + 1e-12
+
+
+def test_tight_pack_cuts_a_dominant_island_only_when_it_packs_fuller():
+    from neuraluv.packing import SPLIT_GAIN
+
+    big, Fb = _strip(30, 0.5)  # a 30:0.5 sliver fills a square texture poorly whole
+    sq = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
+    q = np.array([[0, 1, 2], [0, 2, 3]])
+    uvs, fs = [big, sq, sq], [Fb, q, q]
+    whole = tight_pack(uvs, fs, padding=2, resolution=256)
+    cut = tight_pack(uvs, fs, padding=2, resolution=256, split=0.1, xyz=[np.column_stack([u, 0 * u[:, 0]]) for u in uvs])
+    assert whole.pieces is None and cut.pieces is not None
+    assert cut.utilisation >= whole.utilisation + SPLIT_GAIN
+    for (i, idx, vi), p in zip(cut.pieces, cut.uvs):  # each part is its chart's faces, moved rigidly
+        f = np.searchsorted(vi, fs[i][idx])
+        assert (signed_areas_2d(p, f) > 0).all()
+        assert np.isclose(np.abs(signed_areas_2d(p, f)).sum(), np.abs(signed_areas_2d(uvs[i], fs[i][idx])).sum()
+                          * cut.scale ** 2, rtol=1e-6)
+    assert sorted((i, int(j)) for i, idx, _ in cut.pieces for j in idx) == [(i, j) for i in range(3)
+                                                                          for j in range(len(fs[i]))]
+    same = tight_pack([sq] * 12, [q] * 12, padding=2, resolution=256, split=0.1)
+    assert same.pieces is None  # no island above the share (each holds 1/12): nothing is cut
+
+
+def test_atlas_cuts_a_long_island_validly_and_whole_islands_keeps_it(tmp_path, capsys):
+    from conftest import write_mesh
+
+    from neuraluv.cli import main
+
+    uv, F = _strip(24, 1.0)  # a flat 24:1 ribbon: one long island, a poor fit for a square texture
+    V = np.column_stack([uv, 0.1 * np.sin(uv[:, 0])])
+    res = build_atlas(V, F, "test", resolution=256, padding=2)
+    whole = build_atlas(V, F, "test", resolution=256, padding=2, cut_islands=False)
+    assert whole.info["cut_islands"] == 0 and whole.info["cut"] is False and res.info["cut"] is True
+    assert res.info["cut_islands"] > 0 and res.info["utilisation"] >= whole.info["utilisation"] + 0.01
+    for r in (res, whole):
+        v = r.validation
+        assert v["valid"] and v["flips"] == 0 and v["overlapping_pairs"] == 0 and v["padding_violations"] == 0
+        assert v["density_spread"] < 0.05  # each part scaled to its own 3D area
+    assert res.validation["islands"] == whole.validation["islands"] + res.info["cut_islands"]
+    write_mesh(tmp_path / "in.obj", V, F)
+    for flag, said in (([], True), (["--whole-islands"], False)):
+        rc = main(["atlas", str(tmp_path / "in.obj"), "-o", str(tmp_path / "out.obj"), "--preset", "test",
+                   "--resolution", "256", "--padding", "2", "--quiet", "--device", "cpu", *flag])
+        out = capsys.readouterr().out
+        assert rc == 0 and ("islands added by cutting large ones" in out) == said, out

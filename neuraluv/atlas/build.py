@@ -18,7 +18,8 @@ from neuraluv.atlas.validate import validate_atlas
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.packing import PACKERS, island_density, rotate_to_min_box, shelf_pack, tight_pack, upright, xatlas_pack
+from neuraluv.packing import (PACKERS, SPLIT_SHARE, island_density, rotate_to_min_box, shelf_pack, tight_pack, upright,
+                              xatlas_pack)
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device, torch_threads
 from neuraluv.topology import topology_scan
@@ -111,7 +112,8 @@ class AtlasResult:
 
 def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="tight", seed=0, device="auto",
                 max_cost=4.0, merge=True, merge_faces=8, merge_curvature=0.2, texel_density=None, orient="compact",
-                stack=False, pack_trials=2, time_budget=None, threads=None, progress=False, min_height=1e-6, **overrides):
+                stack=False, pack_trials=2, cut_islands=True, time_budget=None, threads=None, progress=False,
+                min_height=1e-6, **overrides):
     """Build a validated UV atlas of a whole (possibly messy) mesh.
 
     Parameters
@@ -154,6 +156,13 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         Packings the ``tight`` packer tries (raster settings of
         :data:`~neuraluv.packing.RASTER_TRIALS`, :func:`~neuraluv.packing.tight_pack`);
         the fullest is kept. More trials pack fuller on average at a few seconds each.
+    cut_islands : bool
+        Let the ``tight`` packer cut islands that hold more than
+        :data:`~neuraluv.packing.SPLIT_SHARE` of the total UV area into parts
+        (:func:`~neuraluv.packing.granular_islands`: straight cuts, the UVs kept, so
+        no flip or overlap can appear) when that packs fuller by at least
+        :data:`~neuraluv.packing.SPLIT_GAIN`; the cost is seam length, reported as
+        ``info["cut_islands"]`` (added islands). False keeps every island whole.
     min_height : float
         Sliver threshold of :func:`prepare_mesh` (relative to the diagonal).
     time_budget : float, optional
@@ -210,7 +219,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
     Vout = Vin[vmap]
     UV, FUV, face_chart, face_route, packed = _pack(charts, Vout, len(Fr), packer, padding, resolution,
                                                     texel_density=texel_density, orient=orient, stack=stack,
-                                                    pack_trials=pack_trials)
+                                                    pack_trials=pack_trials, cut=cut_islands)
     t_pack = time.perf_counter()
     validation = validate_atlas(Vout, Fr, UV, FUV, padding=padding, resolution=resolution, tiles=packed.pages is not None,
                                 stacked=stack)
@@ -298,24 +307,26 @@ def stack_groups(V, islands, rtol=1e-4):
 
 
 def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orient="compact", stack=False,
-          pack_trials=2):
+          pack_trials=2, cut=True):
     """Pack the charts' islands at one texel density and assemble per-corner UVs for ``m`` faces.
 
     Every island is first scaled so its UV area equals its 3D area (one texel density
     everywhere: the checkerboard has one cell size), then turned (``orient``) and packed.
     With ``stack``, copies of an island (:func:`stack_groups`) are not packed: they take
-    their original's packed UVs, vertex for vertex.
+    their original's packed UVs, vertex for vertex. With ``cut`` (not with ``stack``), the
+    tight packer may pack large islands in parts (``tight_pack(split=SPLIT_SHARE)``).
     """
     islands = [isl for c in charts for isl in c.islands]
     rep = stack_groups(V, islands) if stack else np.arange(len(islands))
     own = np.flatnonzero(rep == np.arange(len(islands)))  # the islands packed (copies take their original's place)
     V, _, unit = normalize_unit_box(V)  # densities in unit-box lengths: no overflow for huge inputs
-    uvs, fl = [], []
+    uvs, fl, xyz = [], [], []
     for fidx, vi, Fl, uv in (islands[i] for i in own):
         d = island_density(uv, V[vi], Fl)
         u = uv / d if np.isfinite(d) and d > 0 else uv
         uvs.append(upright(u, V[vi]) if orient == "upright" else rotate_to_min_box(u))
         fl.append(Fl)
+        xyz.append(V[vi])
     if orient not in ("compact", "upright"):
         raise NeuralUVError(f"unknown orientation {orient!r}: use 'compact' or 'upright'")
     if texel_density is not None and packer != "tight":
@@ -324,7 +335,7 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
         try:
             packed = tight_pack(uvs, fl, padding=padding, resolution=resolution,
                                 texel_density=None if texel_density is None else texel_density * unit,
-                                trials=pack_trials, rotate=orient != "upright")
+                                trials=pack_trials, rotate=orient != "upright", split=SPLIT_SHARE if cut and not stack else None, xyz=xyz)
         except ValueError as exc:
             if texel_density is not None:
                 raise NeuralUVError(str(exc)) from None
@@ -343,9 +354,15 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
     if not multi:
         packed.pages = None
     packed.stacked = int(len(islands) - len(own))
+    placed = zip(islands, where)
+    if packed.pieces:  # islands cut by the packer (never with stack: every island is its own original)
+        placed = [((islands[own[i]][0][idx], None, np.searchsorted(vi, islands[own[i]][2][idx])), k)
+                  for k, (i, idx, vi) in enumerate(packed.pieces)]
+    packed.cut_islands = len(packed.pieces) - len(own) if packed.pieces else 0
+    packed.cut = bool(cut)
     FUV = -np.ones((m, 3), np.int64)
     UVs, off = [], 0
-    for isl, k in zip(islands, where):
+    for isl, k in placed:
         FUV[isl[0]] = isl[2] + off
         uv = np.clip(packed.uvs[k], 0.0, 1.0)
         if multi:  # UDIM tile k: u + k % 10, v + k // 10
@@ -367,19 +384,20 @@ def _pack_info(packed, packer, padding, resolution, texel_density, orient, stack
     pages = 1 if packed.pages is None else int(packed.pages.max()) + 1
     return {"packer": packed.packer or packer, "resolution": resolution, "padding": padding, "orient": orient,
             "stack": bool(stack), "stacked_islands": int(getattr(packed, "stacked", 0)),
+            "cut": bool(getattr(packed, "cut", False)), "cut_islands": int(getattr(packed, "cut_islands", 0)),
             "pack_trials": int(getattr(packed, "trials", 0)) or None,
             "texel_density": texel_density, "pages": pages, "utilisation": packed.utilisation,
             "pack_scale": packed.scale}
 
 
-def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=None):
+def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=None, cut_islands=None):
     """Re-pack an atlas's charts with another packer or padding, without re-solving.
 
     Parameters
     ----------
     res : AtlasResult
     packer : one of :data:`PACKERS`
-    padding, resolution, pack_trials : optional, default the atlas's own.
+    padding, resolution, pack_trials, cut_islands : optional, default the atlas's own.
 
     Returns
     -------
@@ -400,7 +418,8 @@ def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=No
     stack = res.info.get("stack", False)
     trials = res.info.get("pack_trials", 2) if pack_trials is None else pack_trials
     UV, FUV, fc, fr, packed = _pack(res.charts, res.V, len(res.F), packer, padding, resolution, orient=orient,
-                                    stack=stack, pack_trials=trials)
+                                    stack=stack, pack_trials=trials,
+                                    cut=res.info.get("cut", True) if cut_islands is None else cut_islands)
     info = dict(res.info, **_pack_info(packed, packer, padding, resolution, None, orient, stack))
     return replace(res, UV=UV, FUV=FUV, face_chart=fc, face_route=fr, info=info,
                    validation=validate_atlas(res.V, res.F, UV, FUV, padding=padding, resolution=resolution,

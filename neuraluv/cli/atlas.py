@@ -53,6 +53,10 @@ def _packing_options(a):
     a.add_argument("--pack-trials", type=positive_int, default=2,
                    help="packings the tight packer tries (raster grid and rotation settings, up to 4); the fullest is "
                         "kept; more trials pack fuller on average, a few seconds each (default 2)")
+    a.add_argument("--whole-islands", action="store_true",
+                   help="never cut an island to pack fuller (by default the tight packer may cut islands holding more "
+                        "than 1/10 of the UV area in parts when that fills the texture at least 1 point more; "
+                        "cuts add seams, never flips)")
     a.add_argument("--stack", action="store_true",
                    help="identical islands (same triangulation, congruent in 3D, e.g. instanced parts) share one place "
                         "in the texture; validation counts them as stacked, not as overlaps")
@@ -72,7 +76,7 @@ def cmd_atlas(args):
                           resolution=args.resolution, padding=args.padding, packer=args.packer, seed=args.seed,
                           device=args.device, **_overrides(args), texel_density=args.texel_density,
                           orient=args.orient, merge=not args.no_merge, stack=args.stack,
-                          pack_trials=args.pack_trials,
+                          pack_trials=args.pack_trials, cut_islands=not args.whole_islands,
                           time_budget=args.time_budget or None, threads=args.threads, progress=not args.quiet,
                           min_height=args.min_height)
     t = res.totals()
@@ -91,6 +95,8 @@ def cmd_atlas(args):
           + (f" over {res.info['pages']} UDIM tiles" if res.info.get("pages", 1) > 1 else "")
           + f", texel-density spread {_pct(b['density_spread'] or 0.0)}"
           + (f", {b['stacked_islands']} islands stacked on identical ones" if args.stack else "")
+          + (f", {res.info['cut_islands']} islands added by cutting large ones to pack fuller"
+             if res.info.get("cut_islands") else "")
           + f"; {res.info['time']:.1f}s"
           + (f"; input repaired: {', '.join(fixed)}" if fixed else ""))
     if not rep["ok"]:
