@@ -27,3 +27,27 @@ def test_shelf_pack_no_overlap_padding():
     # uniform scale: relative chart sizes kept
     s = [(u.max(0) - u.min(0)) / (c.max(0) - c.min(0)) for u, c in zip(res.uvs, charts)]
     assert np.allclose(s, s[0][0])
+
+
+def test_float32_uvs_keeps_needles_positive_and_moves_nothing_else():
+    """Rounding to float32 (what OBJ/GLB carry) must not flip a needle the solver kept positive."""
+    from neuraluv.jacobian import signed_areas_2d
+    from neuraluv.packing import float32_uvs
+
+    rng = np.random.default_rng(0)
+    # a fan of needles around a shared apex far from the origin (float32 steps ~6e-8 there), plus normal triangles
+    base = np.array([0.7, 0.3])
+    ring = base + 1e-5 * np.column_stack([np.linspace(0, 1, 9), 1e-4 * np.sin(np.linspace(0, 3, 9)) + 1e-9])
+    apex = base + np.array([5e-6, -2e-10])
+    UV = np.vstack([apex, ring, rng.uniform(0.1, 0.2, (30, 2))])
+    F = [[0, i + 2, i + 1] for i in range(1, 8)] + [[10 + 3 * k, 11 + 3 * k, 12 + 3 * k] for k in range(10)]
+    F = np.array(F)
+    F[signed_areas_2d(UV, F) < 0] = F[signed_areas_2d(UV, F) < 0][:, [0, 2, 1]]  # every face positive in float64
+    assert (signed_areas_2d(UV, F) > 0).all()
+    plain = UV.astype(np.float32).astype(float)
+    assert (signed_areas_2d(plain, F) <= 0).any()  # plain rounding flattens or flips some needles
+    U = float32_uvs(UV, F)
+    assert (signed_areas_2d(U, F) > 0).all() and (U == U.astype(np.float32)).all()
+    moved = np.flatnonzero((U != plain).any(1))
+    assert set(moved) <= set(np.unique(F[:7]))  # only needle corners move...
+    assert np.abs(U - UV).max() < 1e-5  # ...by float32 steps, not texels

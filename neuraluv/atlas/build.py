@@ -18,7 +18,7 @@ from neuraluv.atlas.validate import validate_atlas
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.packing import (PACKERS, SPLIT_SHARE, island_density, rotate_to_min_box, shelf_pack, tight_pack, upright,
+from neuraluv.packing import (PACKERS, SPLIT_SHARE, float32_uvs, island_density, rotate_to_min_box, shelf_pack, tight_pack, upright,
                               xatlas_pack)
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device, torch_threads
@@ -371,7 +371,7 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
         off += len(uv)
     # float32-representable values, so OBJ and GLB (float32 TEXCOORD_0) carry the
     # same layout and the in-memory validation speaks for both files
-    UV = np.vstack(UVs).astype(np.float32).astype(np.float64)
+    UV = float32_uvs(np.vstack(UVs), FUV[(FUV >= 0).all(1)])  # needles nudged a few ulps, never flipped
     face_chart = np.zeros(m, np.int64)
     face_route = np.zeros(m, np.int8)
     for i, c in enumerate(charts):
