@@ -271,8 +271,8 @@ def test_granular_islands_cut_only_the_large_islands_into_connected_parts():
         assert np.abs(signed_areas_2d(big, Fb[idx])).sum() <= 0.2 * total
     assert 5 <= len(parts) <= 8  # halving 40/41 of the area down to <= 1/5: 8 parts at most, no over-cutting
     a, b = halve_island(big, Fb)  # a straight cut across the strip's length: two halves of 40 faces
-    assert len(a) == len(b) == 40 and big[Fb[a]][..., 0].max() <= big[Fb[b]][..., 0].min() + 1e-12 or \
-        big[Fb[b]][..., 0].max() <= big[Fb[a]][..., 0].min() + 1e-12
+    assert len(a) == len(b) == 40 and (big[Fb[a]][..., 0].max() <= big[Fb[b]][..., 0].min() + 1e-12 or
+                                       big[Fb[b]][..., 0].max() <= big[Fb[a]][..., 0].min() + 1e-12)
 
 
 def test_tight_pack_cuts_a_dominant_island_only_when_it_packs_fuller():

@@ -18,8 +18,8 @@ from neuraluv.atlas.validate import validate_atlas
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.packing import (PACKERS, SPLIT_SHARE, float32_uvs, island_density, rotate_to_min_box, shelf_pack, tight_pack, upright,
-                              xatlas_pack)
+from neuraluv.packing import (PACKERS, SPLIT_SHARE, float32_uvs, island_density, rotate_to_min_box, shelf_pack,
+                              tight_pack, upright, xatlas_pack)
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device, torch_threads
 from neuraluv.topology import topology_scan
@@ -335,7 +335,8 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
         try:
             packed = tight_pack(uvs, fl, padding=padding, resolution=resolution,
                                 texel_density=None if texel_density is None else texel_density * unit,
-                                trials=pack_trials, rotate=orient != "upright", split=SPLIT_SHARE if cut and not stack else None, xyz=xyz)
+                                trials=pack_trials, rotate=orient != "upright",
+                                split=SPLIT_SHARE if cut and not stack else None, xyz=xyz)
         except ValueError as exc:
             if texel_density is not None:
                 raise NeuralUVError(str(exc)) from None
@@ -354,16 +355,17 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
     if not multi:
         packed.pages = None
     packed.stacked = int(len(islands) - len(own))
-    placed = zip(islands, where)
+    # (global faces, their corners in the packed island's UVs, packed island) per placed island
+    placed = [(isl[0], isl[2], k) for isl, k in zip(islands, where)]
     if packed.pieces:  # islands cut by the packer (never with stack: every island is its own original)
-        placed = [((islands[own[i]][0][idx], None, np.searchsorted(vi, islands[own[i]][2][idx])), k)
+        placed = [(islands[own[i]][0][idx], np.searchsorted(vi, islands[own[i]][2][idx]), k)
                   for k, (i, idx, vi) in enumerate(packed.pieces)]
     packed.cut_islands = len(packed.pieces) - len(own) if packed.pieces else 0
     packed.cut = bool(cut)
     FUV = -np.ones((m, 3), np.int64)
     UVs, off = [], 0
-    for isl, k in placed:
-        FUV[isl[0]] = isl[2] + off
+    for fidx, Fl, k in placed:
+        FUV[fidx] = Fl + off
         uv = np.clip(packed.uvs[k], 0.0, 1.0)
         if multi:  # UDIM tile k: u + k % 10, v + k // 10
             uv = uv + [pages[k] % 10, pages[k] // 10]
