@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["slim_relax", "slim_relax_until"]
+__all__ = ["slim_relax", "slim_relax_until", "slim_relax_while"]
 
 
 def _slim_data(V, F, UV0):
@@ -108,3 +108,48 @@ def slim_relax_until(V, F, UV0, min_det, max_iterations=100):
         if face_dets(V, F, UV).min() >= min_det:
             break
     return UV, it
+
+
+def slim_relax_while(V, F, UV0, accept, max_iterations=20):
+    """SLIM iterations, one at a time, kept while ``accept(UV)`` holds.
+
+    SLIM never crosses a flip but can let a free boundary run over itself; with
+    ``accept`` checking that (e.g. :func:`~neuraluv.atlas.routing.boundary_is_simple`),
+    the last accepted iterate is returned.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV0 : (n,2) float array
+        A flip-free start (returned when the first iterate is not accepted).
+    accept : callable ``(UV) -> bool``
+    max_iterations : int
+
+    Returns
+    -------
+    UV : (n,2) float array
+    iterations : int
+        Iterations accepted.
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import saddle
+    >>> from neuraluv.tutte import tutte
+    >>> from neuraluv.metrics import distortion_metrics
+    >>> V, F = saddle(5)
+    >>> UV0 = tutte(V, F)
+    >>> UV, its = slim_relax_while(V, F, UV0, lambda uv: distortion_metrics(V, F, uv)["esd"] > 4.05)
+    >>> bool(distortion_metrics(V, F, UV)["esd"] > 4.05), its < 20
+    (True, True)
+    """
+    import igl
+
+    UV = np.ascontiguousarray(np.asarray(UV0, float)[:, :2])
+    data, done = _slim_data(V, F, UV), 0
+    for _ in range(int(max_iterations)):
+        nxt = np.ascontiguousarray(np.asarray(igl.slim_solve(data, 1))[:, :2])
+        if not accept(nxt):
+            break
+        UV, done = nxt, done + 1
+    return UV, done

@@ -8,14 +8,15 @@ import numpy as np
 import pytest
 
 from neuraluv.atlas import (
-    bisect_faces, build_atlas, chart_candidates, fallback_islands, pca_uv, per_face_uv, prepare_mesh, read_atlas,
-    route_chart, self_overlap, validate_atlas, write_atlas,
+    FALLBACK_MAX_ESD, bisect_faces, boundary_is_simple, build_atlas, chart_candidates, fallback_islands, pca_uv,
+    per_face_uv, prepare_mesh, read_atlas, route_chart, self_overlap, tutte_slim_uv, validate_atlas, write_atlas,
 )
 from neuraluv.datasets import disk, sphere, spherical_cap
 from neuraluv.datasets.generated import add_nonmanifold, flip_windings, generated_asset, unweld
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver import get_config
 from neuraluv.topology import is_disk_like, topology_scan
+from neuraluv.tutte import tutte
 
 FAST = dict(preset="test", iterations=30, resolution=512, padding=4, threads=1, device="cpu")
 
@@ -69,12 +70,33 @@ def test_bisect_and_fallbacks_are_flip_free():
     assert sum(map(len, parts)) == len(F) and len(parts) >= 2
     for uv, f in zip(per_face_uv(V, F[:5]), F[:5]):
         assert distortion_metrics(V[f], np.array([[0, 1, 2]]), uv)["esd"] == pytest.approx(4.0)
-    # the fallback chain: PCA folds, so the chart is split until PCA is valid on every piece
+    # the fallback chain: PCA folds and the Tutte + SLIM map of a nearly closed cap is too
+    # distorted, so the chart is split until every piece flattens validly
     method, islands, why = fallback_islands(V, F, np.arange(len(F)), "forced")
-    assert method in ("split-pca", "per-face") and len(islands) > 1 and why == "forced"
+    assert method in ("split", "per-face") and len(islands) > 1 and why == "forced"
     for fidx, vi, Fl, uv in islands:
         assert distortion_metrics(V[vi], Fl, uv)["flips"] == 0
         assert self_overlap(uv, Fl) == 0.0
+    assert sorted(np.concatenate([isl[0] for isl in islands]).tolist()) == list(range(len(F)))
+    # with no distortion limit the whole cap is one injective (if stretched) island
+    method, islands, _ = fallback_islands(V, F, np.arange(len(F)), "forced", max_esd=np.inf)
+    assert method == "tutte-slim" and len(islands) == 1
+
+
+def test_fallback_keeps_a_folding_chart_whole_with_tutte_slim():
+    V, F = spherical_cap(n_rings=6, angle=0.7 * np.pi)  # past the equator: PCA folds
+    assert distortion_metrics(V, F, pca_uv(V, F))["flips"] > 0
+    method, islands, _ = fallback_islands(V, F, np.arange(len(F)), "forced")
+    assert method == "tutte-slim" and len(islands) == 1
+    fidx, vi, Fl, uv = islands[0]
+    m = distortion_metrics(V[vi], Fl, uv)
+    assert m["flips"] == 0 and self_overlap(uv, Fl) == 0.0 and boundary_is_simple(uv, Fl)
+    assert m["esd"] <= FALLBACK_MAX_ESD
+    Vt, Ft = V[vi], Fl  # SLIM lowered the Tutte map's distortion
+    assert m["esd"] < distortion_metrics(Vt, Ft, tutte(Vt, Ft))["esd"]
+    # a chart that is not a disk (a closed sphere) has no Tutte island
+    Vs, Fs = sphere(1)
+    assert tutte_slim_uv(Vs, Fs, np.arange(len(Fs))) is None
 
 
 def test_route_chart_neural_on_a_disk():

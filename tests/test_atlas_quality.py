@@ -7,7 +7,7 @@ from neuraluv.atlas.candidates import chart_candidates, merge_small_charts
 from neuraluv.atlas.validate import validate_atlas
 from neuraluv.datasets import sphere
 from neuraluv.jacobian import signed_areas_2d
-from neuraluv.packing import island_density, shelf_pack, tight_pack, upright
+from neuraluv.packing import PACK_TRIALS, island_density, raster_pack, shelf_pack, tight_pack, upright
 
 
 def _shapes(k=12, seed=0):
@@ -90,6 +90,24 @@ def test_raster_pack_nests_irregular_shapes_fuller_than_boxes():
     x = tight_pack(uvs, fs, padding=4, resolution=512, method="xatlas")
     assert r.padding_texels >= 4 and x.padding_texels >= 4
     assert r.utilisation > x.utilisation
+
+
+def test_perturbed_order_trials_pack_at_least_as_full_and_misses_are_cheap():
+    uvs, fs = _shapes(9, seed=4)
+    two = tight_pack(uvs, fs, padding=4, resolution=256, trials=2)
+    more = tight_pack(uvs, fs, padding=4, resolution=256, trials=PACK_TRIALS)
+    assert more.utilisation >= two.utilisation and more.padding_texels >= 4
+    # a different placement order packs differently
+    w = np.ones(len(uvs))
+    w[np.argsort([-np.abs(signed_areas_2d(u, f)).sum() for u, f in zip(uvs, fs)])[:2]] = [0.1, 10.0]
+    a = raster_pack(uvs, fs, padding=4, resolution=256, grid=256, angles=4)
+    b = raster_pack(uvs, fs, padding=4, resolution=256, grid=256, angles=4, weights=w)
+    assert not np.allclose(np.vstack(a.uvs), np.vstack(b.uvs))
+    # above the best scale nothing fits: one placement per rule, then ValueError
+    with pytest.raises(ValueError, match="floor"):
+        raster_pack(uvs, fs, padding=4, resolution=256, grid=256, angles=4, floor=2 * a.scale)
+    c = raster_pack(uvs, fs, padding=4, resolution=256, grid=256, angles=4, floor=0.9 * a.raster_scale)
+    assert c.raster_scale >= 0.9 * a.raster_scale
 
 
 def test_tight_pack_fixed_density_spills_to_pages():

@@ -18,8 +18,8 @@ from neuraluv.atlas.validate import validate_atlas
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.packing import (PACKERS, SPLIT_SHARE, float32_uvs, island_density, rotate_to_min_box, shelf_pack,
-                              tight_pack, upright, xatlas_pack)
+from neuraluv.packing import (PACK_TRIALS, PACKERS, SPLIT_SHARE, float32_uvs, island_density, rotate_to_min_box,
+                              shelf_pack, tight_pack, upright, xatlas_pack)
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device, torch_threads
 from neuraluv.topology import topology_scan
@@ -112,7 +112,7 @@ class AtlasResult:
 
 def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="tight", seed=0, device="auto",
                 max_cost=4.0, merge=True, merge_faces=8, merge_curvature=0.2, texel_density=None, orient="compact",
-                stack=False, pack_trials=2, cut_islands=True, time_budget=None, threads=None, progress=False,
+                stack=False, pack_trials=PACK_TRIALS, cut_islands=True, time_budget=None, threads=None, progress=False,
                 min_height=1e-6, **overrides):
     """Build a validated UV atlas of a whole (possibly messy) mesh.
 
@@ -153,9 +153,11 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         (:func:`stack_groups`) are packed once and the copies lie exactly on the first
         one. Validation counts them as ``stacked_islands``, not as overlaps.
     pack_trials : int
-        Packings the ``tight`` packer tries (raster settings of
-        :data:`~neuraluv.packing.RASTER_TRIALS`, :func:`~neuraluv.packing.tight_pack`);
-        the fullest is kept. More trials pack fuller on average at a few seconds each.
+        Packings the ``tight`` packer tries (the raster settings of
+        :data:`~neuraluv.packing.RASTER_TRIALS`, then the first one with the placement
+        order perturbed; :func:`~neuraluv.packing.tight_pack`); the fullest is kept.
+        More trials pack fuller on average; a perturbed trial that cannot beat the best
+        so far costs one placement per rule.
     cut_islands : bool
         Let the ``tight`` packer cut islands that hold more than
         :data:`~neuraluv.packing.SPLIT_SHARE` of the total UV area into parts
@@ -307,7 +309,7 @@ def stack_groups(V, islands, rtol=1e-4):
 
 
 def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orient="compact", stack=False,
-          pack_trials=2, cut=True):
+          pack_trials=PACK_TRIALS, cut=True):
     """Pack the charts' islands at one texel density and assemble per-corner UVs for ``m`` faces.
 
     Every island is first scaled so its UV area equals its 3D area (one texel density
@@ -418,7 +420,7 @@ def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=No
     resolution = res.info["resolution"] if resolution is None else resolution
     orient = res.info.get("orient", "compact")
     stack = res.info.get("stack", False)
-    trials = res.info.get("pack_trials", 2) if pack_trials is None else pack_trials
+    trials = (res.info.get("pack_trials") or PACK_TRIALS) if pack_trials is None else pack_trials
     UV, FUV, fc, fr, packed = _pack(res.charts, res.V, len(res.F), packer, padding, resolution, orient=orient,
                                     stack=stack, pack_trials=trials,
                                     cut=res.info.get("cut", True) if cut_islands is None else cut_islands)

@@ -7,8 +7,8 @@
   together in batches (:func:`neuraluv.solver.solve_charts`), each with its
   own network, seeds and retries.
 * A candidate whose neural map is invalid (flips, or a boundary that crosses
-  itself) becomes a **marked fallback** (PCA → split into halves → per-face),
-  with its reason.
+  itself) becomes a **marked fallback** (PCA → Tutte + SLIM → split into
+  halves → per-face), with its reason.
 """
 from __future__ import annotations
 
@@ -25,8 +25,15 @@ from neuraluv.topology import boundary_loop, submesh
 #: Route codes of ``AtlasResult.face_route``.
 ROUTES = {"fallback": 0, "neural": 1, "exact": 2}
 
-__all__ = ["AtlasChart", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "boundary_is_simple", "fallback_islands",
-           "route_charts", "route_chart"]
+#: SLIM iterations at most of a fallback's Tutte map (:func:`tutte_slim_uv`).
+TUTTE_SLIM_ITERATIONS = 20
+
+#: Largest E_SD of a fallback's Tutte + SLIM island before the chart is bisected instead
+#: (:func:`fallback_islands`; an isometry has 4, the neural charts of our benchmarks 4–6).
+FALLBACK_MAX_ESD = 8.0
+
+__all__ = ["AtlasChart", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "boundary_is_simple", "tutte_slim_uv",
+           "fallback_islands", "route_charts", "route_chart"]
 
 
 def pca_uv(V, F):
@@ -79,7 +86,7 @@ class AtlasChart:
     ----------
     faces : (k,) int array, faces of the repaired mesh.
     route : ``"neural"``, ``"exact"`` or ``"fallback"``.
-    method : ``"neural"``, ``"exact-unfold"``, ``"pca"``, ``"split-pca"``, ``"per-face"``.
+    method : ``"neural"``, ``"exact-unfold"``, ``"pca"``, ``"tutte-slim"``, ``"split"``, ``"per-face"``.
     reason : why a fallback was used (empty otherwise).
     source : how the candidate arose (component, xatlas seams, split).
     islands : list of ``(fidx, vidx, Fl, uv)``: faces, vertices, local faces and
@@ -107,12 +114,86 @@ class AtlasChart:
         }
 
 
-def fallback_islands(V, F, fidx, why, depth=0):
-    """A marked fallback: PCA → split into halves (PCA each, recursively) → per-face islands.
+def tutte_slim_uv(V, F, fidx, iterations=TUTTE_SLIM_ITERATIONS):
+    """A chart's Tutte map relaxed by SLIM for as long as it stays injective, or None.
+
+    The uniform Tutte map of the chart's filled disk (:func:`chart_mesh`) on a circle
+    is injective (Tutte's theorem; checked, since floating point can crush faces);
+    SLIM iterations (:func:`~neuraluv.relax.slim_relax_while`, flip-free by its line
+    search) then lower the distortion one at a time, and the last iterate whose
+    boundary does not cross itself is kept.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    fidx : (k,) int array, the chart's faces
+    iterations : int
+        SLIM iterations at most.
 
     Returns
     -------
-    method : ``"pca"``, ``"split-pca"`` or ``"per-face"``
+    (vi, Fl, uv) : the chart's local vertices (global indices), faces and UVs (3D
+        scale), as :func:`chart_mesh` numbers them; None when even the Tutte map is not
+        injective (e.g. the chart is not a disk).
+
+    Notes
+    -----
+    SLIM minimises the symmetric Dirichlet energy (paper Eq. 1) and never crosses a
+    flip, but like the neural solver it can let the free boundary run over itself;
+    the boundary check after each iteration (:func:`boundary_is_simple`, on the filled
+    disk) stops it before that.
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import saddle
+    >>> V, F = saddle(6)
+    >>> vi, Fl, uv = tutte_slim_uv(V, F, np.arange(len(F)))
+    >>> m = distortion_metrics(V[vi], Fl, uv); m["flips"], bool(m["esd"] < 4.2)
+    (0, True)
+    """
+    from neuraluv.relax import slim_relax_while
+    from neuraluv.tutte import tutte
+
+    vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)
+    Vc, Fc = np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]).astype(np.int64)
+
+    def injective(uv):  # no flip and a simple outer boundary: injective on the filled disk
+        return bool(np.isfinite(uv).all() and distortion_metrics(Vc, Fc, uv)["valid"] and boundary_is_simple(uv, Fc))
+
+    try:
+        uv = tutte(Vc, Fc)
+        if not injective(uv):
+            return None
+        uv = slim_relax_while(Vc, Fc, uv, injective, iterations)[0]
+    except Exception:  # noqa: BLE001 - a degenerate chart (no boundary, singular system): no such island
+        return None
+    uv = uv[:len(vi)]  # the fillers' vertices come last: dropped
+    return (vi, Fl, uv) if self_overlap(uv, Fl) == 0.0 else None
+
+
+def fallback_islands(V, F, fidx, why, depth=0, max_esd=FALLBACK_MAX_ESD):
+    """A marked fallback: PCA → Tutte + SLIM → split into halves (the same chain on each) → per-face islands.
+
+    A chart whose PCA projection folds or overlaps stays one island when its
+    :func:`tutte_slim_uv` map is injective with E_SD ≤ ``max_esd``; otherwise it is
+    bisected and each half goes through the chain again (a fallback's many small
+    islands are what generated meshes suffer from most).
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    fidx : (k,) int array, the chart's faces
+    why : str, the reason recorded (returned unchanged)
+    depth : int, bisections so far (single faces after 6)
+    max_esd : float
+        Largest symmetric Dirichlet energy (area-weighted mean) of a Tutte + SLIM island.
+
+    Returns
+    -------
+    method : ``"pca"``, ``"tutte-slim"``, ``"split"`` (halves, each PCA, Tutte + SLIM or split
+        again) or ``"per-face"``
     islands : list of ``(fidx, vidx, Fl, uv)`` (see :class:`AtlasChart`)
     why : the reason passed in
     """
@@ -121,12 +202,15 @@ def fallback_islands(V, F, fidx, why, depth=0):
     m = distortion_metrics(V[vi], Fl, uv)
     if m["valid"] and self_overlap(uv, Fl) == 0.0:
         return "pca", [(fidx, vi, Fl, uv)], why
+    if len(fidx) > 1:
+        found = tutte_slim_uv(V, F, fidx)
+        if found is not None and distortion_metrics(np.asarray(V, float)[found[0]], *found[1:])["esd"] <= max_esd:
+            return "tutte-slim", [(fidx, *found)], why
     if depth < 6 and len(fidx) > 1:
         out = []
         for p in bisect_faces(V, F, fidx):
-            _, isl, _ = fallback_islands(V, F, p, why, depth + 1)
-            out += isl
-        return ("split-pca" if depth == 0 else "split"), out, why
+            out += fallback_islands(V, F, p, why, depth + 1, max_esd)[1]
+        return "split", out, why
     out = []
     for f, uvf in zip(fidx, per_face_uv(V, F[fidx])):
         out.append((np.array([f]), F[f].copy(), np.array([[0, 1, 2]]), uvf))

@@ -16,7 +16,7 @@ from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_opti
                                   positive_int, time_budget_option)
 from neuraluv.cli.paths import check_paths
 from neuraluv.errors import NeuralUVError
-from neuraluv.packing import PACKERS
+from neuraluv.packing import PACK_TRIALS, PACKERS
 
 __all__ = ["register"]
 
@@ -50,9 +50,10 @@ def _packing_options(a):
                    help="compact (default: each island turned to its smallest box) or upright (its main axis along U)")
     a.add_argument("--no-merge", action="store_true",
                    help="keep xatlas's small charts instead of merging them into neighbours (more, smaller islands)")
-    a.add_argument("--pack-trials", type=positive_int, default=2,
-                   help="packings the tight packer tries (raster grid and rotation settings, up to 4); the fullest is "
-                        "kept; more trials pack fuller on average, a few seconds each (default 2)")
+    a.add_argument("--pack-trials", type=positive_int, default=PACK_TRIALS,
+                   help="packings the tight packer tries (two raster settings, then the first with the islands' "
+                        "placement order perturbed); the fullest is kept; more trials pack fuller on average "
+                        f"(default {PACK_TRIALS}; 1 is fastest)")
     a.add_argument("--whole-islands", action="store_true",
                    help="never cut an island to pack fuller (by default the tight packer may cut islands holding more "
                         "than 1/10 of the UV area in parts when that fills the texture at least 1 point more; "
