@@ -264,6 +264,17 @@ def test_bench_atlas_quality_cli_writes_the_table(tmp_path, capsys):
     assert "Acceptance" in md and "xatlas (own charts + packer)" in md
 
 
+def test_bench_atlas_quality_generated_from_picks_the_seeds():
+    from argparse import Namespace
+
+    from neuraluv.bench.atlas_quality import _assets
+    from neuraluv.datasets.generated import generated_asset
+
+    got = _assets(Namespace(meshes=["glove"], quick=False, generated=2, generated_from=7))
+    assert [a[0] for a in got] == ["glove", "generated-7", "generated-8"]
+    assert np.array_equal(got[2][2], generated_asset(8)[1])
+
+
 def _strip(n, width=1.0):
     """A long (n,1) strip of 2n triangles in the plane: its own UVs and 3D positions."""
     x = np.repeat(np.arange(n + 1, dtype=float), 2)

@@ -33,6 +33,8 @@ DEFAULT_MESHES = ["cow", "spot", "stanford-bunny", "fertility", "nefertiti"]
 
 def add_arguments(p):
     p.add_argument("--generated", type=int, default=5, help="generated assets to add (default 5)")
+    p.add_argument("--generated-from", type=int, default=0, metavar="SEED",
+                   help="seed of the first generated asset (default 0: generated-0, generated-1, ...)")
     p.add_argument("--resolution", type=int, default=1024, help="texture resolution (default 1024)")
     p.add_argument("--padding", type=float, default=4.0, help="padding in texels (default 4)")
 
@@ -115,7 +117,8 @@ def _assets(args):
             out.append((name, None, None, str(exc)))
             continue
         out.append((name, V, F, ""))
-    for i in range(0 if args.quick else args.generated):
+    first = getattr(args, "generated_from", 0)
+    for i in range(first, first + (0 if args.quick else args.generated)):
         V, F = generated_asset(i)[:2]
         out.append((f"generated-{i}", V, F, ""))
     return out
