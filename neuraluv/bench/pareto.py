@@ -4,7 +4,8 @@ The same network (the ``paper`` preset: width 256, five layers, k = 16,
 ω0 = 15, 200 warm-up iterations) is run for a fixed number of iterations with
 early stopping off, on two sets: the compact charts (Hand, Bob, Camel) and
 three xatlas-cut charts near 1K, 6.5K and 40K faces (the paper's "Thingi"
-probe; here the registry charts closest to those sizes). For each budget:
+probe; here the registry charts closest to those sizes, midpoint-subdivided
+where no native chart is within a factor 1.5). For each budget:
 valid count with its denominator, median E_SD, mean min det J, mean flip
 percentage and median time — and a figure of median E_SD against median time.
 
@@ -22,7 +23,7 @@ from neuraluv.bench.common import DEFAULT_MESHES, MESH_LABELS, QUICK_MESHES, loa
 from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, fmt_time,
                      fraction, machine_info, markdown_table, plain, progress, with_paper, save_figure, write_csv, write_markdown)
 
-__all__ = ["bench", "add_arguments", "run", "BUDGETS", "XATLAS_TARGETS"]
+__all__ = ["bench", "add_arguments", "run", "closest_charts", "BUDGETS", "XATLAS_TARGETS"]
 
 #: The paper's iteration budgets.
 BUDGETS = [500, 750, 1000, 5000]
@@ -31,20 +32,47 @@ QUICK_BUDGETS = [10, 20, 40]
 XATLAS_TARGETS = [1000, 6500, 40000]
 
 
-def _xatlas_set(cache_dir, targets=XATLAS_TARGETS):
-    """The disk-like xatlas charts of the default sources closest (in log size) to ``targets``."""
-    from neuraluv.bench.charts import chart_pool, default_sources
+def closest_charts(pool, targets=XATLAS_TARGETS, within=1.5):
+    """The disk-like charts of ``pool`` closest (in log size) to each of ``targets``, each used once.
 
-    pool, _ = chart_pool(default_sources(), cache_dir)
+    A target with no native chart within a factor ``within`` of it takes the closest
+    midpoint-subdivided copy of a native chart instead
+    (:func:`~neuraluv.bench.charts.subdivided_charts`, as Table 6's upper strata: xatlas
+    cuts no chart above about 10K faces from our meshes); its ``chart`` ends in ``/s<level>``.
+
+    Examples
+    --------
+    >>> pool = [{"source": "m", "chart": i, "faces": n, "disk": True} for i, n in enumerate([900, 1200, 10000])]
+    >>> [(c["chart"], c["faces"]) for c in closest_charts(pool, [1000, 6500, 40000])]
+    [(0, 900), ('1/s1', 4800), ('2/s1', 40000)]
+    """
+    from neuraluv.bench.charts import subdivided_charts
+
     disk = [c for c in pool if c["disk"]]
+    finer = subdivided_charts(disk, low=0, high=float("inf"))
     chosen = []
     for t in targets:
-        cands = [c for c in disk if all(c is not d for d in chosen)]
-        if not cands:
+        def gap(c):
+            return abs(math.log(c["faces"] / t))
+
+        def free(cs):
+            return [c for c in cs if all((c["source"], c["chart"]) != (d["source"], d["chart"]) for d in chosen)]
+
+        if not free(disk):
             break
-        best = min(cands, key=lambda c: abs(math.log(c["faces"] / t)))
+        best = min(free(disk), key=gap)
+        if gap(best) > math.log(within) and free(finer):
+            best = min([best, *free(finer)], key=gap)
         chosen.append(best)
-    return [(f"{c['source']}#{c['chart']}", c["V"], c["F"]) for c in chosen]
+    return chosen
+
+
+def _xatlas_set(cache_dir, targets=XATLAS_TARGETS):
+    """:func:`closest_charts` of the default sources' xatlas charts, as ``(name, V, F)``."""
+    from neuraluv.bench.charts import chart_arrays, chart_pool, default_sources
+
+    pool, _ = chart_pool(default_sources(), cache_dir)
+    return [(f"{c['source']}#{c['chart']}", *chart_arrays(c)) for c in closest_charts(pool, targets)]
 
 
 def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None, quick=False, output="results/pareto",
@@ -135,7 +163,9 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
         body += ["", fm]
     body += ["", f"Paper caption: “{PV.CAPTIONS['table7']}”"]
     notes = [PAPER_NOTE, "The xatlas probe stands in for the paper's Thingi charts (≈1K, 6.5K, 40K faces): the "
-             "disk-like registry charts closest in size (see the set list above)."]
+             "disk-like registry charts closest in size (see the set list above); where no native xatlas chart is "
+             "within a factor 1.5 of the target, the closest midpoint-subdivided copy of one (named `.../s<level>`: "
+             "the same surface and boundary, each triangle split into 4 per level), as in Table 6."]
     if missing:
         notes.append("Not run (mesh not cached): " + ", ".join(n for n, _ in missing))
     if log.skipped:
