@@ -722,9 +722,9 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
     of :data:`RASTER_TRIALS`, then with the first setting and the placement order
     perturbed (seeded, :data:`ORDER_JITTER`; up to :data:`ORDER_MAX_ISLANDS` islands; each
     such trial is first placed at the best scale so far and costs one placement per rule
-    when it cannot beat it), up to
-    :data:`RASTER_MAX_ISLANDS` islands; or xatlas's shape placement with quarter-turn
-    trials (:func:`xatlas_shape_pack`) for more islands or with ``method="xatlas"``.
+    when it cannot beat it), up to :data:`RASTER_MAX_ISLANDS` islands; or xatlas's shape
+    placement with (at most two) quarter-turn trials (:func:`xatlas_shape_pack`) for more
+    islands or with ``method="xatlas"``.
 
     With ``split`` (a share, e.g. :data:`SPLIT_SHARE`), when a chart holds more than
     that share of the total UV area the charts are also packed cut by
@@ -791,10 +791,10 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
 
 
 def _tight_pack(uvs, faces, *, padding, resolution, texel_density, trials, rotate, method):
-    if method == "xatlas" or (method == "auto" and len(uvs) > RASTER_MAX_ISLANDS):
-        return xatlas_shape_pack(uvs, faces, padding=padding, resolution=resolution, texel_density=texel_density,
-                                 trials=trials if rotate else 1)
     trials = max(int(trials), 1)
+    if method == "xatlas" or (method == "auto" and len(uvs) > RASTER_MAX_ISLANDS):  # perturbed orders: raster only
+        return xatlas_shape_pack(uvs, faces, padding=padding, resolution=resolution, texel_density=texel_density,
+                                 trials=min(trials, len(RASTER_TRIALS)) if rotate else 1)
     best = _fullest(lambda g=grid, a=angles: raster_pack(uvs, faces, padding=padding, resolution=resolution,
                                                          texel_density=texel_density, grid=g, angles=a if rotate else 1)
                     for grid, angles in RASTER_TRIALS[:trials])

@@ -51,9 +51,9 @@ def _packing_options(a):
     a.add_argument("--no-merge", action="store_true",
                    help="keep xatlas's small charts instead of merging them into neighbours (more, smaller islands)")
     a.add_argument("--pack-trials", type=positive_int, default=PACK_TRIALS,
-                   help="packings the tight packer tries (two raster settings, then the first with the islands' "
-                        "placement order perturbed); the fullest is kept; more trials pack fuller on average "
-                        f"(default {PACK_TRIALS}; 1 is fastest)")
+                   help="packings the tight packer tries (two raster settings, then, for up to 48 islands, the "
+                        "first with the islands' placement order perturbed); the fullest is kept; more trials pack "
+                        f"fuller on average (default {PACK_TRIALS}; 1 is fastest)")
     a.add_argument("--whole-islands", action="store_true",
                    help="never cut an island to pack fuller (by default the tight packer may cut islands holding more "
                         "than 1/10 of the UV area in parts when that fills the texture at least 1 point more; "
