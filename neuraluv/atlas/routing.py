@@ -19,7 +19,7 @@ import numpy as np
 
 from neuraluv.atlas.candidates import bisect_faces, chart_mesh
 from neuraluv.atlas.validate import self_overlap
-from neuraluv.metrics import distortion_metrics
+from neuraluv.metrics import distortion_metrics, is_valid
 from neuraluv.topology import boundary_loop, submesh
 
 #: Route codes of ``AtlasResult.face_route``.
@@ -159,7 +159,7 @@ def tutte_slim_uv(V, F, fidx, iterations=TUTTE_SLIM_ITERATIONS):
     Vc, Fc = np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]).astype(np.int64)
 
     def injective(uv):  # no flip and a simple outer boundary: injective on the filled disk
-        return bool(np.isfinite(uv).all() and distortion_metrics(Vc, Fc, uv)["valid"] and boundary_is_simple(uv, Fc))
+        return is_valid(Vc, Fc, uv) and boundary_is_simple(uv, Fc)
 
     try:
         uv = tutte(Vc, Fc)
