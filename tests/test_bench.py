@@ -155,6 +155,7 @@ def test_ablation_quick_reports_invalid_attempt_and_fallback(tmp_path):
     row = next(r for r in res.rows if r["variant"] == "random init")
     assert row["status"] == "fallback" and row["flips"] == 0  # the map actually returned is valid
     assert "[50.60%]" in res.markdown and "[invalid]" in res.markdown and "1/1" in res.markdown
+    assert "brackets average Hand, Bob, Camel; this table averages glove" in res.markdown  # not the paper's charts
 
 def test_ablation_seeds_report_mean_and_spread_over_seeds(tmp_path):
     from neuraluv.bench.ablation import bench

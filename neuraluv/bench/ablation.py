@@ -168,6 +168,11 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
              "marked Tutte fallback instead (never a silently flipped map)."]
     if missing:
         notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
+    ran = sorted(n for n, _, _ in loaded)
+    if ran != sorted(DEFAULT_MESHES):
+        notes.append("The paper's numbers in brackets average " + ", ".join(MESH_LABELS[n] for n in DEFAULT_MESHES)
+                     + "; this table averages " + (", ".join(MESH_LABELS.get(n, n) for n in ran) or "no chart")
+                     + ": compare the rows' order and signs, not the values.")
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
     csv_rows = [{**r} for r in rows]
