@@ -349,8 +349,11 @@ def results_dir():
 
 
 def _table_of(source):
+    """The paper's table a results file regenerates: its own entry, or, for a subset run in a
+    sub-folder (``ablation/paper-camel-1k/table4_ablation.md``), its folder's main table's."""
+    parts = source.split("/")
     for t in PAPER_TABLES:
-        if t["results"] == source:
+        if t["results"] in (source, "/".join(parts[:1] + parts[-1:])):
             return t
     return None
 
@@ -403,7 +406,8 @@ def parse_findings(text, source=None, table=None):
 
 
 def findings(root=None):
-    """Every claim of every committed ``results/*/table*.md`` (and ``amara_*.md``) findings block, in the paper's table order.
+    """Every claim of every committed ``results/*/table*.md`` (and ``amara_*.md``, and the subset runs in
+    ``results/*/*/table*.md``) findings block, in the paper's table order.
 
     Returns
     -------
@@ -412,7 +416,7 @@ def findings(root=None):
     """
     root = results_dir() if root is None else Path(root)
     out = []
-    for path in sorted([*root.glob("*/table*.md"), *root.glob("*/amara_*.md")]):
+    for path in sorted([*root.glob("*/table*.md"), *root.glob("*/amara_*.md"), *root.glob("*/*/table*.md")]):
         source = path.relative_to(root).as_posix()
         t = _table_of(source)
         out += parse_findings(path.read_text(encoding="utf-8"), source, t["number"] if t else None)
