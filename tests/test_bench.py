@@ -1,5 +1,6 @@
 """The benchmark runners (``neuraluv bench``): quick-mode smoke with real content checks."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -224,6 +225,27 @@ def test_generated_quick_counts_coverage_routes_and_marks_blender_not_run(tmp_pa
     assert verdicts["the full atlas path covers every repaired face with zero local flips"] is True
     assert any(holds is None and "Blender" in claim for claim, holds, _ in res.findings)
     assert (tmp_path / "amara_coverage_validity.md").exists() and (tmp_path / "amara_blender_methods.md").exists()
+
+
+def test_generated_sweep_takes_the_first_n_assets_even_when_the_folder_holds_more(tmp_path, monkeypatch):
+    import types
+
+    import neuraluv.atlas.sweep as sweep_mod
+    from neuraluv.bench.generated import _sweep
+
+    src = tmp_path / "cache" / "assets"
+    src.mkdir(parents=True)
+    for i in range(5):  # left by an earlier, larger sweep
+        (src / f"gen_{i:04d}.obj").write_text("v 0 0 0\n")
+    seen = {}
+
+    def fake_sweep(inputs, out_dir, **kw):
+        seen["inputs"] = [Path(p).name for p in inputs]
+        return types.SimpleNamespace(summary={"tried": len(inputs)})
+
+    monkeypatch.setattr(sweep_mod, "sweep", fake_sweep)
+    assert _sweep(tmp_path, 2, "test", 1, True, True) == {"tried": 2}
+    assert seen["inputs"] == ["gen_0000.obj", "gen_0001.obj"]
 
 
 def test_cli_bench_runs_and_resumes(tmp_path, capsys):

@@ -341,13 +341,13 @@ def _sweep(out, n, preset, workers, quick, resume):
 
     src = out / "cache" / "assets"
     src.mkdir(parents=True, exist_ok=True)
-    for i in range(n):
-        path = src / f"gen_{i:04d}.obj"
+    paths = [src / f"gen_{i:04d}.obj" for i in range(n)]  # these n: the folder may hold more from a larger run
+    for i, path in enumerate(paths):
         if not path.exists():
             V, F, _ = generated_asset(i, res=16 if quick else None)
             with atomic_write(path) as fh:  # every defect kept: no merging, no cleanup (as data_scripts/make_generated.py)
                 fh.write(trimesh.Trimesh(V, F, process=False).export(file_type="obj"))
-    res = sweep([str(src)], out / "cache" / "sweep", n_workers=workers, resume=resume, progress=False,
+    res = sweep([str(p) for p in paths], out / "cache" / "sweep", n_workers=workers, resume=resume, progress=False,
                 label=f"generated {n}", preset=preset)
     return res.summary
 
