@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "reference", "quiet_environment",
-           "PAPER_TABLES", "CHAPTER_CLAIMS", "Claim", "results_dir", "parse_findings", "findings", "checklist",
-           "claims_page"]
+           "PAPER_TABLES", "CHAPTER_CLAIMS", "Claim", "results_dir", "parse_findings", "report_files", "findings",
+           "checklist", "claims_page"]
 
 #: Name of the environment variable that selects paper-scale runs.
 ENV_VAR = "NEURALUV_PAPER_SCALE"
@@ -405,6 +405,13 @@ def parse_findings(text, source=None, table=None):
     return out
 
 
+def report_files(root=None):
+    """The committed reports that :func:`findings` reads: ``results/*/table*.md``, ``results/*/amara_*.md``
+    and the subset runs ``results/*/*/table*.md`` (sorted paths; empty without a ``results/`` folder)."""
+    root = results_dir() if root is None else Path(root)
+    return sorted([*root.glob("*/table*.md"), *root.glob("*/amara_*.md"), *root.glob("*/*/table*.md")])
+
+
 def findings(root=None):
     """Every claim of every committed ``results/*/table*.md`` (and ``amara_*.md``, and the subset runs in
     ``results/*/*/table*.md``) findings block, in the paper's table order.
@@ -416,7 +423,7 @@ def findings(root=None):
     """
     root = results_dir() if root is None else Path(root)
     out = []
-    for path in sorted([*root.glob("*/table*.md"), *root.glob("*/amara_*.md"), *root.glob("*/*/table*.md")]):
+    for path in report_files(root):
         source = path.relative_to(root).as_posix()
         t = _table_of(source)
         out += parse_findings(path.read_text(encoding="utf-8"), source, t["number"] if t else None)
