@@ -350,7 +350,15 @@ def results_dir():
 
 def _table_of(source):
     """The paper's table a results file regenerates: its own entry, or, for a subset run in a
-    sub-folder (``ablation/paper-camel-1k/table4_ablation.md``), its folder's main table's."""
+    sub-folder (``ablation/paper-camel-1k/table4_ablation.md``), its folder's main table's.
+
+    Examples
+    --------
+    >>> _table_of("ablation/table4_ablation.md")["label"], _table_of("ablation/seeds/table4_ablation.md")["label"]
+    ('tab:ablation_prelim', 'tab:ablation_prelim')
+    >>> _table_of("ablation/notes.md") is None
+    True
+    """
     parts = source.split("/")
     for t in PAPER_TABLES:
         if t["results"] in (source, "/".join(parts[:1] + parts[-1:])):
