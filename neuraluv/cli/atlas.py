@@ -16,7 +16,7 @@ from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_opti
                                   positive_int, time_budget_option)
 from neuraluv.cli.paths import check_paths
 from neuraluv.errors import NeuralUVError
-from neuraluv.packing import PACK_TRIALS, PACKERS
+from neuraluv.packing import ORDER_MAX_ISLANDS, PACK_TRIALS, PACKERS
 
 __all__ = ["register"]
 
@@ -51,7 +51,8 @@ def _packing_options(a):
     a.add_argument("--no-merge", action="store_true",
                    help="keep xatlas's small charts instead of merging them into neighbours (more, smaller islands)")
     a.add_argument("--pack-trials", type=positive_int, default=PACK_TRIALS,
-                   help="packings the tight packer tries (two raster settings, then, for up to 48 islands, the "
+                   help="packings the tight packer tries (two raster settings, then, for up to "
+                        f"{ORDER_MAX_ISLANDS} islands, the "
                         "first with the islands' placement order perturbed); the fullest is kept; more trials pack "
                         f"fuller on average (default {PACK_TRIALS}; 1 is fastest)")
     a.add_argument("--whole-islands", action="store_true",
