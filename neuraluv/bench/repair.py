@@ -73,7 +73,7 @@ def _layouts(quick, seed, preset):
         uv, Vb, Fb, _ = blender_map(V, F, "SMART")
         out.append((f"Blender Smart UV {name}", Vb, Fb, uv, Fb.copy(), "broken"))
     except Exception as exc:  # noqa: BLE001 - optional extra
-        notes.append(f"Blender Smart UV: not run ({str(exc).splitlines()[0][:80]})")
+        notes.append(f"Blender Smart UV: not run ({(str(exc).splitlines() or [type(exc).__name__])[0]})")
     return out, notes
 
 
