@@ -86,7 +86,8 @@ def jacobians(UV, F, dC_inv):
     UV = np.asarray(UV, float)
     F = np.asarray(F, np.int64)
     dU = np.stack([UV[F[:, 1]] - UV[F[:, 0]], UV[F[:, 2]] - UV[F[:, 0]]], axis=-1)
-    return dU @ dC_inv
+    with np.errstate(invalid="ignore", over="ignore"):  # degenerate faces: inf frames -> non-finite J
+        return dU @ dC_inv
 
 
 def signed_areas_2d(UV, F):

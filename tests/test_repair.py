@@ -290,4 +290,18 @@ def test_bench_repair_quick(tmp_path):
     changed = round((1 - fold["bit_identical_island"]) * fold["faces"])
     assert changed <= 4 * fold["damage"]["faces"], (changed, fold["damage"])
     assert fold["esd_ratio"] <= 1.05
+    # the faces kept as supplied are measured too: unchanged bits give the undamaged E_SD where the damage did not reach
+    assert all(r["esd_kept_repaired"] is not None for r in gen if r["bit_identical_island"] > 0)
     assert (tmp_path / "repair.md").exists() and (tmp_path / "repair.csv").exists()
+
+
+def test_bench_repair_explains_a_rise_in_esd():
+    from neuraluv.bench.repair import _markdown
+
+    row = {"layout": "atlas", "case": "vertex noise", "faces": 10, "flips_before": 2, "overlaps_before": 0,
+           "fixed": True, "flips_after": 0, "overlaps_after": 0, "bit_identical_island": 0.9, "bit_identical_all": 0.9,
+           "esd_undamaged": 4.0, "esd_repaired": 40.0, "esd_ratio": 10.0, "esd_kept_undamaged": 4.0,
+           "esd_kept_repaired": 44.0, "time_s": 0.1, "steps": "untangle+polish", "scaled": False, "repacked": False}
+    md = _markdown([row], [])
+    assert "atlas vertex noise ×10.000; over the faces kept as supplied (90.0% of the island) 4.000 → 44.000" in md
+    assert "above ×1.05" not in _markdown([{**row, "esd_repaired": 4.1, "esd_ratio": 1.025}], [])

@@ -210,6 +210,9 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
             same &= (FUVb == fuvd).all(1)
             e_before = _esd(V, F, UV, FUV, isl, base_scale) if kind == "good" else None
             e_after = _esd(V, F, UVb, FUVb, isl, base_scale) if fixed else float("inf")
+            kept = isl[same[isl]]  # faces of the island the repair left exactly as supplied
+            e_kept = ((_esd(V, F, UV, FUV, kept, base_scale), _esd(V, F, UVb, FUVb, kept, base_scale))
+                      if kind == "good" and fixed and len(kept) else (None, None))
             steps = sorted({a["step"] for i in res.islands for a in i["actions"]} | ({"new chart"} if res.new_charts else set()))
             scaled = any(a.get("scale", 1.0) != 1.0 for i in res.islands for a in i["actions"])
             row = {"layout": name, "case": case, "faces": int(len(F)), "islands": int(f0.n_islands),
@@ -221,6 +224,7 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
                    "bit_identical_island": float(same[isl].mean()), "bit_identical_all": float(same.mean()),
                    "esd_undamaged": e_before, "esd_repaired": e_after,
                    "esd_ratio": (e_after / e_before) if (e_before and np.isfinite(e_after)) else None,
+                   "esd_kept_undamaged": e_kept[0], "esd_kept_repaired": e_kept[1],
                    "time_s": t_rep, "steps": "; ".join(steps), "scaled": scaled, "repacked": res.repacked,
                    "damage": info}
             if have_mouette and kind in ("good", "broken") and f0.n_islands == 1 and case in ("local fold", "vertex noise", "as produced"):
@@ -303,6 +307,14 @@ def _markdown(rows, notes):
         summary.append(f"Against mouette (cases both fix): faster on **{faster}/{len(both)}**; time ratio "
                        f"(neuraluv / mouette) median ×{float(np.median([r['time_s'] / r['mouette_time_s'] for r in both])):.2f}, "
                        f"max ×{max(r['time_s'] / r['mouette_time_s'] for r in both):.2f}.")
+    worse = [r for r in rows if (r.get("esd_ratio") or 0) > 1.05 and r.get("esd_kept_repaired") is not None]
+    if worse:  # E_SD rose: say whether the repair's changes or the damage it kept (valid, stretched faces) did it
+        summary.append("E_SD above ×1.05 of the undamaged layout: " + "; ".join(
+            f"{r['layout']} {r['case']} ×{r['esd_ratio']:.3f}; over the faces kept as supplied "
+            f"({100 * r['bit_identical_island']:.1f}% of the island) {fmt_num(r['esd_kept_undamaged'], 3)} → "
+            f"{fmt_num(r['esd_kept_repaired'], 3)}" for r in worse)
+            + ". Repair changes only broken faces (flipped, overlapping, mirrored, non-finite, outside the square): "
+              "faces the damage stretched without flipping are kept as they were supplied.")
     text = [f"Fixed: **{n_fixed}/{len(rows)}** layouts (verdict on the written OBJ read back).", "", *summary, "",
             markdown_table(head, body), "",
             "*bit-identical*: faces whose three corners have exactly the input's UV bits and `vt` indices "
