@@ -305,3 +305,6 @@ def test_bench_repair_explains_a_rise_in_esd():
     md = _markdown([row], [])
     assert "atlas vertex noise ×10.000; over the faces kept as supplied (90.0% of the island) 4.000 → 44.000" in md
     assert "above ×1.05" not in _markdown([{**row, "esd_repaired": 4.1, "esd_ratio": 1.025}], [])
+    # a case mouette does not take reads "—"; without mouette the column says so
+    assert "| — |" in md and "unavailable" not in md
+    assert "| not installed |" in _markdown([row], [], mouette_ran=False)

@@ -185,7 +185,7 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
 
             have_mouette = True
         except ImportError:
-            notes.append("mouette: not installed (`pip install mouette`); its columns read `unavailable`")
+            notes.append("mouette: not installed (`pip install -e .[bench]`); its column reads `not installed`")
     rows = []
     figure_case = None
     tmp = Path(tempfile.mkdtemp(prefix="neuraluv_bench_repair_"))
@@ -263,13 +263,13 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
         fig = figure_case[1].figure(title=f"{figure_case[0]}: local fold, repaired")
         files.append(save_figure(fig, out_dir / "repair_local_fold.png", dpi=90))
         plt.close(fig)
-    md = _markdown(rows, notes)
+    md = _markdown(rows, notes, mouette_ran=have_mouette)
     cmd = command_line("repair", argv)
     files.append(write_markdown(out_dir / "repair.md", "UV repair with minimal change", md, command=cmd, machine=machine))
     return BenchOutput(name="repair", rows=rows, markdown=md, files=files)
 
 
-def _markdown(rows, notes):
+def _markdown(rows, notes, mouette_ran=True):
     def yn(x):
         return "—" if x is None else ("yes" if x else "**no**")
 
@@ -277,7 +277,7 @@ def _markdown(rows, notes):
             "bit-identical (island / all)", "E_SD undamaged → repaired", "time s", "steps", "mouette: fixed, time s, E_SD, bit-identical"]
     body = []
     for r in rows:
-        m = "unavailable" if "mouette_fixed" not in r else (
+        m = ("—" if mouette_ran else "not installed") if "mouette_fixed" not in r else (
             f"error: {r.get('mouette_error')}" if r.get("mouette_fixed") is None else
             f"{yn(r['mouette_fixed'])}, {r['mouette_time_s']:.2f}, {fmt_num(r['mouette_esd'], 3)}, "
             f"{100 * r['mouette_bit_identical']:.1f}%")
@@ -322,7 +322,7 @@ def _markdown(rows, notes):
             "*E_SD*: area-weighted symmetric Dirichlet energy over the damaged island, both layouts measured at the "
             "undamaged layout's texel density (4 = isometry); for real broken layouts there is no undamaged value. "
             "mouette: `mouette.processing.parametrization.untangle` (numba, compiled before timing), boundary locked, "
-            "per-vertex UVs — it accepts only the single-chart cases."]
+            "per-vertex UVs — it takes only the single-chart fold and noise cases (—: a case it does not take)."]
     text += [f"- {n}" for n in notes]
     return "\n".join(text)
 
