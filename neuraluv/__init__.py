@@ -9,7 +9,7 @@ Layers (each imports only the ones above it in this list):
 * the geometry core, flat and torch-free: :mod:`~neuraluv.errors`,
   :mod:`~neuraluv.io`, :mod:`~neuraluv.meshfix`, :mod:`~neuraluv.topology`,
   :mod:`~neuraluv.jacobian`, :mod:`~neuraluv.metrics`, :mod:`~neuraluv.spectral`,
-  :mod:`~neuraluv.tutte`, :mod:`~neuraluv.relax`, :mod:`~neuraluv.packing`,
+  :mod:`~neuraluv.tutte`, :mod:`~neuraluv.relax`,
   :mod:`~neuraluv.plot`, :mod:`~neuraluv.check`, :mod:`~neuraluv.datasets`;
 * :mod:`neuraluv.solver`: the SIREN chart solver (torch);
 * :mod:`neuraluv.atlas`: unwrap, atlas construction, UV repair, sweeps;

@@ -114,7 +114,7 @@ def slim_relax_while(V, F, UV0, accept, max_iterations=20):
     """SLIM iterations, one at a time, kept while ``accept(UV)`` holds.
 
     SLIM never crosses a flip but can let a free boundary run over itself; with
-    ``accept`` checking that (e.g. :func:`~neuraluv.atlas.routing.boundary_is_simple`),
+    ``accept`` checking that (e.g. :func:`~neuraluv.layout.overlap.boundary_is_simple`),
     the last accepted iterate is returned.
 
     Parameters

@@ -8,14 +8,16 @@ import numpy as np
 import pytest
 
 from neuraluv.atlas import (
-    FALLBACK_MAX_ESD, bisect_faces, boundary_is_simple, build_atlas, chart_candidates, fallback_islands, pca_uv,
-    per_face_uv, prepare_mesh, read_atlas, route_chart, self_overlap, tutte_slim_uv, validate_atlas, write_atlas,
+    FALLBACK_MAX_ESD, build_atlas, chart_candidates, fallback_islands, pca_uv, per_face_uv, prepare_mesh, read_atlas,
+    route_chart, tutte_slim_uv, write_atlas,
 )
+from neuraluv.layout import boundary_is_simple, self_overlap, uv_islands
+from neuraluv.layout import validate_layout as validate_atlas
 from neuraluv.datasets import disk, sphere, spherical_cap
 from neuraluv.datasets.generated import add_nonmanifold, flip_windings, generated_asset, unweld
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver import get_config
-from neuraluv.topology import is_disk_like, topology_scan
+from neuraluv.topology import bisect_faces, is_disk_like, topology_scan
 from neuraluv.tutte import tutte
 
 FAST = dict(preset="test", iterations=30, resolution=512, padding=4, threads=1, device="cpu")
@@ -223,7 +225,7 @@ def test_slivers_are_removed_and_counted():
 
 def test_repack_changes_only_the_placement(tmp_path):
     """Repacking (another packer, another padding) keeps every island's shape and its validity."""
-    from neuraluv.atlas import repack, uv_islands
+    from neuraluv.atlas import repack
 
     res = build_atlas(*sphere(1), **FAST, cut_islands=False)  # whole islands, as the xatlas packer keeps them
     again = repack(res, "xatlas", padding=8)
@@ -246,7 +248,7 @@ def test_repack_changes_only_the_placement(tmp_path):
 
 def test_exact_unfold_of_strips_is_an_isometry():
     """A chart without interior vertices unfolds exactly (E_SD 4, no flips); one with an interior vertex does not."""
-    from neuraluv.atlas import boundary_is_simple, unfold_tree
+    from neuraluv.atlas import unfold_tree
 
     V, F = disk(n_rings=3)
     outer = np.flatnonzero(np.all(np.linalg.norm(V[F][:, :, :2], axis=2) > 0.4, axis=1))  # the outer ring: a strip

@@ -4,10 +4,11 @@ import pytest
 
 from neuraluv.atlas import build_atlas
 from neuraluv.atlas.candidates import chart_candidates, merge_small_charts
-from neuraluv.atlas.validate import validate_atlas
+from neuraluv.layout import validate_layout as validate_atlas
 from neuraluv.datasets import sphere
 from neuraluv.jacobian import signed_areas_2d
-from neuraluv.packing import PACK_TRIALS, island_density, raster_pack, shelf_pack, tight_pack, upright
+from neuraluv.layout import texel_density, upright
+from neuraluv.layout.pack import PACK_TRIALS, raster_pack, shelf_pack, tight_pack
 
 
 def _shapes(k=12, seed=0):
@@ -159,7 +160,7 @@ def test_atlas_has_one_texel_density_and_udim_tiles_validate():
 
 def test_island_density_is_scale_of_the_map():
     V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]])
-    assert island_density(3 * V[:, :2], V, np.array([[0, 1, 2]])) == pytest.approx(3.0)
+    assert texel_density(V, np.array([[0, 1, 2]]), 3 * V[:, :2]) == pytest.approx(3.0)
 
 
 def _three_copies():
@@ -285,8 +286,8 @@ def _strip(n, width=1.0):
 
 
 def test_granular_islands_cut_only_the_large_islands_into_connected_parts():
-    from neuraluv.packing import granular_islands, halve_island
-    from neuraluv.topology import face_components
+    from neuraluv.layout.pack import granular_islands
+    from neuraluv.topology import bisect_faces, face_components
 
     big, Fb = _strip(40)
     small, Fs = _strip(2)
@@ -299,13 +300,13 @@ def test_granular_islands_cut_only_the_large_islands_into_connected_parts():
         assert face_components(Fb[idx])[0] == 1  # edge-connected
         assert np.abs(signed_areas_2d(big, Fb[idx])).sum() <= 0.2 * total
     assert 5 <= len(parts) <= 8  # halving 40/41 of the area down to <= 1/5: 8 parts at most, no over-cutting
-    a, b = halve_island(big, Fb)  # a straight cut across the strip's length: two halves of 40 faces
+    a, b = bisect_faces(big, Fb, np.arange(len(Fb)))  # a straight cut across the strip's length: two halves of 40 faces
     assert len(a) == len(b) == 40 and (big[Fb[a]][..., 0].max() <= big[Fb[b]][..., 0].min() + 1e-12 or
                                        big[Fb[b]][..., 0].max() <= big[Fb[a]][..., 0].min() + 1e-12)
 
 
 def test_tight_pack_cuts_a_dominant_island_only_when_it_packs_fuller():
-    from neuraluv.packing import SPLIT_GAIN
+    from neuraluv.layout.pack import SPLIT_GAIN
 
     big, Fb = _strip(30, 0.5)  # a 30:0.5 sliver fills a square texture poorly whole
     sq = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])

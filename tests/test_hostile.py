@@ -41,7 +41,8 @@ def _one_line_error(code, err, *words):
 
 
 def _valid_output(path):
-    from neuraluv.atlas import read_atlas, validate_atlas
+    from neuraluv.atlas import read_atlas
+    from neuraluv.layout import validate_layout as validate_atlas
 
     V, F, UV, FUV = read_atlas(path)
     v = validate_atlas(V, F, UV, FUV, check_padding=False)

@@ -3,7 +3,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.packing import shelf_pack
+from neuraluv.layout.pack import shelf_pack
 
 
 
@@ -32,7 +32,7 @@ def test_shelf_pack_no_overlap_padding():
 def test_float32_uvs_keeps_needles_positive_and_moves_nothing_else():
     """Rounding to float32 (what OBJ/GLB carry) must not flip a needle the solver kept positive."""
     from neuraluv.jacobian import signed_areas_2d
-    from neuraluv.packing import float32_uvs
+    from neuraluv.layout import float32_uvs
 
     rng = np.random.default_rng(0)
     # a fan of needles around a shared apex far from the origin (float32 steps ~6e-8 there), plus normal triangles

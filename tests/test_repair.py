@@ -5,10 +5,12 @@ from neuraluv import datasets
 from neuraluv.io import read_obj
 from neuraluv.metrics import distortion_metrics, face_dets
 from neuraluv.repair import damage
-from neuraluv.repair.diagnose import diagnose_layout, layout_facts
-from neuraluv.repair.overlap import overlapping_pairs, pair_areas
+from neuraluv.layout import layout_facts
+from neuraluv.layout import texel_density as reference_scale
+from neuraluv.layout.overlap import overlapping_pairs, pair_areas
+from neuraluv.repair.diagnose import diagnose_layout
 from neuraluv.repair.repair import repair_layout
-from neuraluv.repair.untangle import polish, reference_scale, untangle
+from neuraluv.repair.untangle import polish, untangle
 from neuraluv.tutte import tutte
 
 

@@ -9,29 +9,28 @@ A whole, possibly messy, input mesh becomes a packed UV atlas:
                    until every candidate is disk-like
 ``routing``        3. each candidate → an exact unfold (no interior vertex), the
                    neural solver (all charts in batches), or a marked fallback
-                   (PCA → split → per-face), with its reason
-``build``          4. packing (area-scaled shelf or xatlas) and the
-                   :class:`AtlasResult`; :func:`build_atlas` runs 1–5
-``validate``       5. exact validation: flips, overlaps, bounds, padding
+                   (PCA → Tutte + SLIM → split → per-face), with its reason
+``build``          4. packing (:mod:`neuraluv.layout.pack`) and the
+                   :class:`AtlasResult`; :func:`build_atlas` runs 1–4 and
+                   validates the layout (:func:`neuraluv.layout.validate_layout`)
 ``export``         OBJ/GLB writing, read-back validation, figures
 ``unwrap``         unwrap disk-like component(s) without cutting
 ``sweep``          many assets on a dask cluster
 =================  ==========================================================
 
-Repairing a supplied layout (rather than making one) is :mod:`neuraluv.repair`.
+Repairing a supplied layout (rather than making one) is :mod:`neuraluv.repair`; what a
+layout is, and everything both ask of one, is :mod:`neuraluv.layout`.
 """
 from neuraluv.atlas.build import AtlasResult, build_atlas, repack
-from neuraluv.atlas.candidates import bisect_faces, chart_candidates, seam_charts
+from neuraluv.atlas.candidates import chart_candidates, seam_charts
 from neuraluv.atlas.export import atlas_file, plot_density, plot_routes, read_atlas, save_renders, write_atlas
 from neuraluv.atlas.prepare import prepare_mesh
-from neuraluv.atlas.routing import (FALLBACK_MAX_ESD, AtlasChart, boundary_is_simple, fallback_islands, pca_uv,
-                                    per_face_uv, route_chart, route_charts, tutte_slim_uv, unfold_tree)
-from neuraluv.atlas.validate import face_texel_density, self_overlap, triangles_union, uv_islands, validate_atlas
+from neuraluv.atlas.routing import (FALLBACK_MAX_ESD, AtlasChart, fallback_islands, pca_uv, per_face_uv, route_chart,
+                                    route_charts, tutte_slim_uv, unfold_tree)
 
 __all__ = [
-    "AtlasChart", "AtlasResult", "prepare_mesh", "seam_charts", "bisect_faces", "chart_candidates",
-    "pca_uv", "per_face_uv", "fallback_islands", "self_overlap", "triangles_union", "route_chart", "route_charts", "unfold_tree", "boundary_is_simple", "build_atlas",
+    "AtlasChart", "AtlasResult", "prepare_mesh", "seam_charts", "chart_candidates",
+    "pca_uv", "per_face_uv", "fallback_islands", "route_chart", "route_charts", "unfold_tree", "build_atlas",
     "tutte_slim_uv", "FALLBACK_MAX_ESD",
-    "validate_atlas", "write_atlas", "read_atlas", "plot_routes", "save_renders", "atlas_file", "uv_islands", "repack",
-    "face_texel_density", "plot_density",
+    "write_atlas", "read_atlas", "plot_routes", "save_renders", "atlas_file", "repack", "plot_density",
 ]

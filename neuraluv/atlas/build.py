@@ -14,12 +14,14 @@ from neuraluv import __version__
 from neuraluv.atlas.candidates import chart_candidates, congruent_components, merge_small_charts
 from neuraluv.atlas.prepare import prepare_mesh
 from neuraluv.atlas.routing import ROUTES, route_charts
-from neuraluv.atlas.validate import validate_atlas
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
+from neuraluv.layout.facts import layout_facts, texel_density
+from neuraluv.layout.pack import PACK_TRIALS, PACKERS, SPLIT_SHARE, shelf_pack, tight_pack, xatlas_pack
+from neuraluv.layout.precision import float32_uvs
+from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box, upright
+from neuraluv.layout.validate import validate_facts
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.packing import (PACK_TRIALS, PACKERS, SPLIT_SHARE, float32_uvs, island_density, rotate_to_min_box,
-                              shelf_pack, tight_pack, upright, xatlas_pack)
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device, torch_threads
 from neuraluv.topology import topology_scan
@@ -41,7 +43,7 @@ class AtlasResult:
     face_chart : (m,) int array, chart of each face.
     face_route : (m,) int array, the route of each face: 1 neural, 2 exact unfold, 0 marked fallback
         (:data:`~neuraluv.atlas.routing.ROUTES`).
-    validation : dict from :func:`validate_atlas` (in memory).
+    validation : dict from :func:`~neuraluv.layout.validate_facts` (in memory).
     info : dict, input counts, repair, packing, timings.
     """
 
@@ -127,7 +129,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
     padding : float
         Minimum gap between islands (and to the border) in texels.
     packer : ``"tight"`` (default: charts' rasterised shapes placed largest first at the
-        largest common density that fits, :func:`~neuraluv.packing.tight_pack`), ``"shelf"`` (the paper's
+        largest common density that fits, :func:`~neuraluv.layout.pack.tight_pack`), ``"shelf"`` (the paper's
         area-scaled shelf packer of bounding boxes) or ``"xatlas"`` (xatlas's packer on the
         charts' bounding boxes).
     seed : int
@@ -154,16 +156,16 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         one. Validation counts them as ``stacked_islands``, not as overlaps.
     pack_trials : int
         Packings the ``tight`` packer tries (the raster settings of
-        :data:`~neuraluv.packing.RASTER_TRIALS`, then the first one with the placement
-        order perturbed; :func:`~neuraluv.packing.tight_pack`); the fullest is kept.
+        :data:`~neuraluv.layout.pack.RASTER_TRIALS`, then the first one with the placement
+        order perturbed; :func:`~neuraluv.layout.pack.tight_pack`); the fullest is kept.
         More trials pack fuller on average; a perturbed trial that cannot beat the best
         so far costs one placement per rule.
     cut_islands : bool
         Let the ``tight`` packer cut islands that hold more than
-        :data:`~neuraluv.packing.SPLIT_SHARE` of the total UV area into parts
-        (:func:`~neuraluv.packing.granular_islands`: straight cuts, the UVs kept, so
+        :data:`~neuraluv.layout.pack.SPLIT_SHARE` of the total UV area into parts
+        (:func:`~neuraluv.layout.pack.granular_islands`: straight cuts, the UVs kept, so
         no flip or overlap can appear) when that packs fuller by at least
-        :data:`~neuraluv.packing.SPLIT_GAIN`; the cost is seam length, reported as
+        :data:`~neuraluv.layout.pack.SPLIT_GAIN`; the cost is seam length, reported as
         ``info["cut_islands"]`` (added islands). False keeps every island whole.
     min_height : float
         Sliver threshold of :func:`prepare_mesh` (relative to the diagonal).
@@ -195,7 +197,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
     t0 = time.perf_counter()
     V, F = check_mesh_arrays(V, F)
     Vin = V
-    Vn = normalize_unit_box(V)[0]
+    Vn, _, unit = normalize_unit_box(V)  # once: every step below works on the unit-box mesh
     Vr, Fr, vmap, rinfo = prepare_mesh(Vn, F, min_height=min_height)
     if len(Fr) == 0:
         raise NeuralUVError("no usable faces: every face is degenerate (zero area or repeated corners)")
@@ -218,13 +220,12 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         charts = route_charts(Vr, Fr, cands, cfg, seed=seed, device=device, deadline=deadline, progress=progress)
     charts += _copied_charts(charts, copies, len(Fr))
     t_route = time.perf_counter()
-    Vout = Vin[vmap]
-    UV, FUV, face_chart, face_route, packed = _pack(charts, Vout, len(Fr), packer, padding, resolution,
-                                                    texel_density=texel_density, orient=orient, stack=stack,
-                                                    pack_trials=pack_trials, cut=cut_islands)
+    UV, FUV, face_chart, face_route, pinfo = _pack(charts, Vr, unit, len(Fr), packer, padding, resolution,
+                                                   fixed_density=texel_density, orient=orient, stack=stack,
+                                                   pack_trials=pack_trials, cut=cut_islands)
     t_pack = time.perf_counter()
-    validation = validate_atlas(Vout, Fr, UV, FUV, padding=padding, resolution=resolution, tiles=packed.pages is not None,
-                                stacked=stack)
+    validation = validate_facts(layout_facts(Vr, Fr, UV, FUV, normalized=True), padding=padding, resolution=resolution,
+                                tiles=pinfo["pages"] > 1, stacked=stack)
     info = {
         "input_vertices": int(len(Vin)), "input_faces": int(len(F)),
         "repaired_vertices": int(len(Vr)), "repaired_faces": int(len(Fr)),
@@ -234,13 +235,13 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         "max_cost": max_cost, "time_budget": time_budget,
         "candidates": {"xatlas_and_splits": n_cand, "after_merge": len(cands), "merge": bool(merge),
                        "merge_faces": merge_faces, "merge_curvature": merge_curvature},
-        **_pack_info(packed, packer, padding, resolution, texel_density, orient, stack),
+        **pinfo,
         "timings": {"repair": t_rep - t0, "candidates": t_cand - t_rep, "routing": t_route - t_cand,
                     "packing": t_pack - t_route, "validation": time.perf_counter() - t_pack},
         "time": time.perf_counter() - t0, "device": str(resolve_device(device)), "seed": seed,
     }
-    return AtlasResult(V=Vout, F=Fr, UV=UV, FUV=FUV, charts=charts, face_chart=face_chart, face_route=face_route,
-                       validation=validation, info=info)
+    return AtlasResult(V=Vin[vmap], F=Fr, UV=UV, FUV=FUV, charts=charts, face_chart=face_chart,
+                       face_route=face_route, validation=validation, info=info)
 
 
 def _copied_charts(charts, copies, m):
@@ -267,7 +268,7 @@ def stack_groups(V, islands, rtol=1e-4):
 
     Parameters
     ----------
-    V : (n,3) float array
+    V : (n,3) float array (any uniform scale: the test is relative)
     islands : list of ``(faces, vertex_ids, local_faces, uv)`` tuples (as in ``AtlasChart.islands``)
     rtol : float
         Largest vertex misfit after the best rotation, relative to the island's size.
@@ -301,75 +302,72 @@ def stack_groups(V, islands, rtol=1e-4):
                     continue
                 B = V[islands[j][1]]
                 B = B - B.mean(0)
-                U, _, Vt = np.linalg.svd(A.T @ B)
-                R = U @ Vt
-                if np.linalg.det(R) > 0 and np.abs(A @ R - B).max() <= rtol * size:
+                R, _, t = rigid_fit(A, B)
+                if np.abs(A @ R + t - B).max() <= rtol * size:
                     rep[j] = i
     return rep
 
 
-def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orient="compact", stack=False,
+def _pack(charts, Vn, unit, m, packer, padding, resolution, *, fixed_density=None, orient="compact", stack=False,
           pack_trials=PACK_TRIALS, cut=True):
     """Pack the charts' islands at one texel density and assemble per-corner UVs for ``m`` faces.
 
-    Every island is first scaled so its UV area equals its 3D area (one texel density
-    everywhere: the checkerboard has one cell size), then turned (``orient``) and packed.
-    With ``stack``, copies of an island (:func:`stack_groups`) are not packed: they take
-    their original's packed UVs, vertex for vertex. With ``cut`` (not with ``stack``), the
-    tight packer may pack large islands in parts (``tight_pack(split=SPLIT_SHARE)``).
+    Every island is first scaled so its UV area equals its 3D area on the unit-box mesh
+    ``Vn`` (one texel density everywhere: the checkerboard has one cell size), then turned
+    (``orient``) and packed. ``unit`` is the input's length per ``Vn`` length, for
+    ``fixed_density`` (``build_atlas(texel_density=...)``, texels per input unit). With
+    ``stack``, copies of an island (:func:`stack_groups`) are not packed: they take their
+    original's packed UVs, vertex for vertex. With ``cut`` (not with ``stack``), the tight packer may pack large islands
+    in parts (``tight_pack(split=SPLIT_SHARE)``).
+
+    Returns
+    -------
+    UV, FUV, face_chart, face_route, info (the packing's part of ``AtlasResult.info``)
     """
-    islands = [isl for c in charts for isl in c.islands]
-    rep = stack_groups(V, islands) if stack else np.arange(len(islands))
-    own = np.flatnonzero(rep == np.arange(len(islands)))  # the islands packed (copies take their original's place)
-    V, _, unit = normalize_unit_box(V)  # densities in unit-box lengths: no overflow for huge inputs
-    uvs, fl, xyz = [], [], []
-    for fidx, vi, Fl, uv in (islands[i] for i in own):
-        d = island_density(uv, V[vi], Fl)
-        u = uv / d if np.isfinite(d) and d > 0 else uv
-        uvs.append(upright(u, V[vi]) if orient == "upright" else rotate_to_min_box(u))
-        fl.append(Fl)
-        xyz.append(V[vi])
     if orient not in ("compact", "upright"):
         raise NeuralUVError(f"unknown orientation {orient!r}: use 'compact' or 'upright'")
-    if texel_density is not None and packer != "tight":
+    if packer not in PACKERS:
+        raise NeuralUVError(f"unknown packer {packer!r}: use one of {', '.join(PACKERS)}")
+    if fixed_density is not None and packer != "tight":
         raise NeuralUVError("--texel-density needs the 'tight' packer")
+    islands = [isl for c in charts for isl in c.islands]
+    rep = stack_groups(Vn, islands) if stack else np.arange(len(islands))
+    own = np.flatnonzero(rep == np.arange(len(islands)))  # the islands packed (copies take their original's place)
+    uvs, fl, xyz = [], [], []
+    for fidx, vi, Fl, uv in (islands[i] for i in own):
+        d = texel_density(Vn[vi], Fl, uv)
+        u = uv / d if np.isfinite(d) and d > 0 else uv
+        uvs.append(upright(u, Vn[vi]) if orient == "upright" else rotate_to_min_box(u))
+        fl.append(Fl)
+        xyz.append(Vn[vi])
     if packer == "tight":
         try:
             packed = tight_pack(uvs, fl, padding=padding, resolution=resolution,
-                                texel_density=None if texel_density is None else texel_density * unit,
+                                texel_density=None if fixed_density is None else fixed_density * unit,
                                 trials=pack_trials, rotate=orient != "upright",
                                 split=SPLIT_SHARE if cut and not stack else None, xyz=xyz)
         except ValueError as exc:
-            if texel_density is not None:
+            if fixed_density is not None:
                 raise NeuralUVError(str(exc)) from None
             packed = shelf_pack(uvs, fl, padding=padding, resolution=resolution)  # the shelf packer always fits
             packed.packer = "shelf (tight failed: " + str(exc) + ")"
     elif packer == "shelf":
         packed = shelf_pack(uvs, fl, padding=padding, resolution=resolution)
-    elif packer == "xatlas":
-        packed = xatlas_pack(uvs, fl, padding=padding, resolution=resolution)
     else:
-        raise NeuralUVError(f"unknown packer {packer!r}: use one of {', '.join(PACKERS)}")
-    packed.trials = int(pack_trials) if packer == "tight" and not packed.packer else 0
+        packed = xatlas_pack(uvs, fl, padding=padding, resolution=resolution)
     where = np.searchsorted(own, rep)  # island -> its packed original
-    pages = packed.pages
-    multi = pages is not None and int(pages.max()) > 0
-    if not multi:
-        packed.pages = None
-    packed.stacked = int(len(islands) - len(own))
+    pages = packed.pages if packed.n_pages > 1 else None
     # (global faces, their corners in the packed island's UVs, packed island) per placed island
     placed = [(isl[0], isl[2], k) for isl, k in zip(islands, where)]
     if packed.pieces:  # islands cut by the packer (never with stack: every island is its own original)
         placed = [(islands[own[i]][0][idx], np.searchsorted(vi, islands[own[i]][2][idx]), k)
                   for k, (i, idx, vi) in enumerate(packed.pieces)]
-    packed.cut_islands = len(packed.pieces) - len(own) if packed.pieces else 0
-    packed.cut = bool(cut)
     FUV = -np.ones((m, 3), np.int64)
     UVs, off = [], 0
     for fidx, Fl, k in placed:
         FUV[fidx] = Fl + off
         uv = np.clip(packed.uvs[k], 0.0, 1.0)
-        if multi:  # UDIM tile k: u + k % 10, v + k // 10
+        if pages is not None:  # UDIM tile k: u + k % 10, v + k // 10
             uv = uv + [pages[k] % 10, pages[k] // 10]
         UVs.append(uv)
         off += len(uv)
@@ -381,17 +379,13 @@ def _pack(charts, V, m, packer, padding, resolution, *, texel_density=None, orie
     for i, c in enumerate(charts):
         face_chart[c.faces] = i
         face_route[c.faces] = ROUTES[c.route]
-    return UV, FUV, face_chart, face_route, packed
-
-
-def _pack_info(packed, packer, padding, resolution, texel_density, orient, stack=False):
-    pages = 1 if packed.pages is None else int(packed.pages.max()) + 1
-    return {"packer": packed.packer or packer, "resolution": resolution, "padding": padding, "orient": orient,
-            "stack": bool(stack), "stacked_islands": int(getattr(packed, "stacked", 0)),
-            "cut": bool(getattr(packed, "cut", False)), "cut_islands": int(getattr(packed, "cut_islands", 0)),
-            "pack_trials": int(getattr(packed, "trials", 0)) or None,
-            "texel_density": texel_density, "pages": pages, "utilisation": packed.utilisation,
+    info = {"packer": packed.packer, "resolution": resolution, "padding": padding, "orient": orient,
+            "stack": bool(stack), "stacked_islands": int(len(islands) - len(own)), "cut": bool(cut),
+            "cut_islands": len(packed.pieces) - len(own) if packed.pieces else 0,
+            "pack_trials": int(pack_trials) if packer == "tight" and packed.packer == "tight" else None,
+            "texel_density": fixed_density, "pages": packed.n_pages, "utilisation": packed.utilisation,
             "pack_scale": packed.scale}
+    return UV, FUV, face_chart, face_route, info
 
 
 def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=None, cut_islands=None):
@@ -421,10 +415,11 @@ def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=No
     orient = res.info.get("orient", "compact")
     stack = res.info.get("stack", False)
     trials = (res.info.get("pack_trials") or PACK_TRIALS) if pack_trials is None else pack_trials
-    UV, FUV, fc, fr, packed = _pack(res.charts, res.V, len(res.F), packer, padding, resolution, orient=orient,
-                                    stack=stack, pack_trials=trials,
-                                    cut=res.info.get("cut", True) if cut_islands is None else cut_islands)
-    info = dict(res.info, **_pack_info(packed, packer, padding, resolution, None, orient, stack))
-    return replace(res, UV=UV, FUV=FUV, face_chart=fc, face_route=fr, info=info,
-                   validation=validate_atlas(res.V, res.F, UV, FUV, padding=padding, resolution=resolution,
-                                             tiles=packed.pages is not None, stacked=stack))
+    Vn, _, unit = normalize_unit_box(res.V)
+    UV, FUV, fc, fr, pinfo = _pack(res.charts, Vn, unit, len(res.F), packer, padding, resolution, orient=orient,
+                                   stack=stack, pack_trials=trials,
+                                   cut=res.info.get("cut", True) if cut_islands is None else cut_islands)
+    validation = validate_facts(layout_facts(Vn, res.F, UV, FUV, normalized=True), padding=padding,
+                                resolution=resolution, tiles=pinfo["pages"] > 1, stacked=stack)
+    return replace(res, UV=UV, FUV=FUV, face_chart=fc, face_route=fr, info=dict(res.info, **pinfo),
+                   validation=validation)

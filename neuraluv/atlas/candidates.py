@@ -4,9 +4,13 @@ from __future__ import annotations
 import numpy as np
 
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.topology import components, face_components, is_disk_like, submesh
+from neuraluv.layout.overlap import boundary_is_simple
+from neuraluv.layout.rigid import rigid_fit
+from neuraluv.metrics import distortion_metrics
+from neuraluv.topology import (bisect_faces, boundary_loop, boundary_loops, components, face_components, is_disk_like,
+                               nonmanifold_vertices, submesh)
 
-__all__ = ["seam_charts", "bisect_faces", "split_into_disks", "chart_candidates", "merge_small_charts",
+__all__ = ["seam_charts", "split_into_disks", "chart_candidates", "merge_small_charts",
            "congruent_components", "chart_mesh"]
 
 
@@ -69,36 +73,6 @@ def _interruptible(fn, *args):
     if "exc" in box:
         raise box["exc"]
     return box.get("out")
-
-
-def bisect_faces(V, F, fidx):
-    """Split a face set in two along its longest principal axis.
-
-    Returns the edge-connected pieces of the two halves (at least two pieces
-    when ``len(fidx) > 1``).
-
-    Examples
-    --------
-    >>> from neuraluv.datasets import disk
-    >>> V, F = disk(n_rings=3)
-    >>> parts = bisect_faces(V, F, np.arange(len(F)))
-    >>> len(parts) >= 2, sum(len(p) for p in parts) == len(F)
-    (True, True)
-    """
-    fidx = np.asarray(fidx, np.int64)
-    if len(fidx) < 2:
-        return [fidx]
-    c = V[F[fidx]].mean(1)
-    c0 = c - c.mean(0)
-    _, _, vt = np.linalg.svd(c0, full_matrices=False)
-    t = c0 @ vt[0]
-    order = np.argsort(t, kind="stable")
-    halves = [fidx[order[: len(fidx) // 2]], fidx[order[len(fidx) // 2:]]]
-    parts = []
-    for h in halves:
-        n, lab = face_components(F[h])
-        parts += [h[lab == k] for k in range(n)]
-    return parts
 
 
 def split_into_disks(V, F, fidx, note="split"):
@@ -166,8 +140,6 @@ def chart_mesh(V, F, fidx):
     (1, True, True)
     """
     import igl
-
-    from neuraluv.topology import boundary_loops, nonmanifold_vertices
 
     V = np.asarray(V, float)
     vi, Fl = submesh(F, np.asarray(fidx, np.int64))
@@ -388,10 +360,6 @@ def _flattens(V, F):
     """True when LSCM (two boundary pins) maps the disk ``(V, F)`` without flips or a self-crossing boundary."""
     import igl
 
-    from neuraluv.atlas.routing import boundary_is_simple
-    from neuraluv.metrics import distortion_metrics
-    from neuraluv.topology import boundary_loop
-
     bnd = boundary_loop(F)
     if len(bnd) < 3:
         return False
@@ -448,9 +416,8 @@ def congruent_components(V, F, *, rtol=1e-4):
         P = V[vs] - V[vs].mean(0)
         size = float(np.sqrt((P ** 2).sum(1).max())) or 1.0
         for rf, rv, RP in groups.get(key, []):
-            U, _, Vt = np.linalg.svd(RP.T @ P)
-            R = U @ Vt
-            if np.linalg.det(R) > 0 and np.abs(RP @ R - P).max() <= rtol * size:
+            R, _, t = rigid_fit(RP, P)
+            if np.abs(RP @ R + t - P).max() <= rtol * size:
                 out.append((rf, fc, rv, vs))
                 break
         else:

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv.atlas.build import build_atlas
-from neuraluv.atlas.validate import validate_atlas
+from neuraluv.layout.validate import validate_layout
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import atomic_write, jsonable, load_mesh, read_obj, write_obj
 
@@ -90,7 +90,7 @@ def plot_density(V, F, UV, FUV, *, title=None, view="plane", axes=None):
     -------
     fig : matplotlib Figure
     """
-    from neuraluv.atlas.validate import face_texel_density
+    from neuraluv.layout.facts import face_texel_density
     from neuraluv.plot import plot_surface_and_uv
 
     d = face_texel_density(V, F, UV, FUV)
@@ -155,8 +155,8 @@ def atlas_file(inp, out, *, report=None, renders=None, **kw):
     V, F = load_mesh(inp)
     res = build_atlas(V, F, **kw)
     write_atlas(out, res.V, res.F, res.UV, res.FUV)
-    back = validate_atlas(*read_atlas(out), padding=res.info["padding"], resolution=res.info["resolution"],
-                          tiles=res.info.get("pages", 1) > 1, stacked=res.info.get("stack", False))
+    back = validate_layout(*read_atlas(out), padding=res.info["padding"], resolution=res.info["resolution"],
+                           tiles=res.info.get("pages", 1) > 1, stacked=res.info.get("stack", False))
     rep = res.report()
     rep["input"] = str(inp)
     rep["output"] = str(out)

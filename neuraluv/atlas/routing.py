@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from neuraluv.atlas.candidates import bisect_faces, chart_mesh
-from neuraluv.atlas.validate import self_overlap
+from neuraluv.atlas.candidates import chart_mesh
+from neuraluv.layout.overlap import boundary_is_simple, self_overlap
 from neuraluv.metrics import distortion_metrics, is_valid
-from neuraluv.topology import boundary_loop, submesh
+from neuraluv.topology import bisect_faces, boundary_loop, submesh
 
 #: Route codes of ``AtlasResult.face_route``.
 ROUTES = {"fallback": 0, "neural": 1, "exact": 2}
@@ -32,7 +32,7 @@ TUTTE_SLIM_ITERATIONS = 20
 #: (:func:`fallback_islands`; an isometry has 4, the neural charts of our benchmarks 4–6).
 FALLBACK_MAX_ESD = 8.0
 
-__all__ = ["AtlasChart", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "boundary_is_simple", "tutte_slim_uv",
+__all__ = ["AtlasChart", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "tutte_slim_uv",
            "fallback_islands", "route_charts", "route_chart"]
 
 
@@ -296,24 +296,6 @@ def _apex(V, face, w, UV):
     h = np.sqrt(max(rp * rp - (t * L) ** 2, 0.0)) / L
     # (w, p, q) counter-clockwise ⇔ (p, q, w) counter-clockwise ⇔ w lies left of the directed edge p → q
     return P + t * d + h * np.array([-d[1], d[0]])
-
-
-def boundary_is_simple(UV, F):
-    """True when the chart's boundary loop does not cross itself in UV (with no flip: globally injective).
-
-    Examples
-    --------
-    >>> F = np.array([[0, 1, 2], [0, 2, 3]])
-    >>> boundary_is_simple(np.array([[0., 0], [1, 0], [1, 1], [0, 1]]), F)
-    True
-    """
-    import shapely
-
-    bnd = boundary_loop(F)
-    if len(bnd) < 3:
-        return False
-    ring = shapely.LinearRing(np.asarray(UV, float)[bnd])
-    return bool(ring.is_simple)
 
 
 def _finish(chart, V, t0):

@@ -7,7 +7,7 @@ the same islands — ``shelf`` (the paper's bounding-box shelves), ``xatlas``
 (xatlas's packer on bounding boxes), ``tight`` (the default: the islands' shapes
 at the largest common texel density that fits, exact padding). Every number is
 measured on the UV layout as written (float32), with
-:func:`~neuraluv.atlas.validate.validate_atlas`:
+:func:`~neuraluv.layout.validate_layout`:
 
 * utilisation — summed UV triangle area / texture area (the true area; xatlas's
   own ``utilization`` counts rasterised texels and is reported beside it);
@@ -64,12 +64,6 @@ def seam_length(V, F, FUV):
     return float(np.linalg.norm(V[lo[e]] - V[hi[e]], axis=1).sum())
 
 
-def _mirrored(V, F, UV, FUV):
-    from neuraluv.repair.diagnose import layout_facts
-
-    return int(layout_facts(V, F, UV, FUV).mirrored.sum())
-
-
 def xatlas_atlas(V, F, resolution, padding):
     """xatlas's own atlas: (V_cut, F_orig, UV, FUV, seconds, xatlas's raster utilisation)."""
     import xatlas
@@ -89,14 +83,14 @@ def xatlas_atlas(V, F, resolution, padding):
 
 
 def _measure(V, F, UV, FUV, resolution, padding):
-    from neuraluv.atlas.validate import validate_atlas
+    from neuraluv.layout.validate import validate_layout
     from neuraluv.jacobian import signed_areas_2d
     from neuraluv.meshfix import normalize_unit_box
 
     Vn = normalize_unit_box(V)[0]
-    val = validate_atlas(V, F, UV, FUV, padding=padding, resolution=resolution, tiles=bool(UV.max() > 1))
+    val = validate_layout(V, F, UV, FUV, padding=padding, resolution=resolution, tiles=bool(UV.max() > 1))
     return {
-        "islands": val["islands"], "flips": val["flips"], "mirrored_islands": _mirrored(V, F, UV, FUV),
+        "islands": val["islands"], "flips": val["flips"], "mirrored_islands": val["mirrored_islands"],
         "overlapping_pairs": val["overlapping_pairs"], "padding_violations": val["padding_violations"],
         "min_gap_texels": val["min_gap_texels"] if isinstance(val["min_gap_texels"], float) else None,
         "utilisation": float(np.abs(signed_areas_2d(UV, FUV)).sum()), "density_spread": val["density_spread"],

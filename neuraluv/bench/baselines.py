@@ -30,6 +30,7 @@ from neuraluv.bench.common import MESH_LABELS, load_meshes
 from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, fmt_num, fmt_pct, fmt_time,
                                        fraction, machine_info, markdown_table, plain, progress, with_paper, write_csv,
                                        write_markdown)
+from neuraluv.layout.rigid import rigid_fit
 
 __all__ = ["bff_agreement", "optcuts_sample", "map_distance", "add_arguments", "run", "BFF_VARIANTS"]
 
@@ -70,12 +71,8 @@ def map_distance(F, uv_a, F_b, uv_b):
         sel = flab == c
         a = np.asarray(uv_a, float)[F[sel]].reshape(-1, 2)
         b = np.asarray(uv_b, float)[np.asarray(F_b, np.int64)[sel]].reshape(-1, 2)
-        a = a - a.mean(0)
-        b = b - b.mean(0)
-        U, S, Wt = np.linalg.svd(b.T @ a)
-        R = U @ Wt
-        s = S.sum() / max((b ** 2).sum(), 1e-300)
-        d = np.linalg.norm(s * b @ R - a, axis=1)
+        R, sc, t = rigid_fit(b, a, proper=False, scale=True)
+        d = np.linalg.norm(sc * b @ R + t - a, axis=1)
         ext = max(np.ptp(a, axis=0).max(), 1e-300)
         rms = max(rms, float(np.sqrt((d ** 2).mean()) / ext))
         worst = max(worst, float(d.max() / ext))

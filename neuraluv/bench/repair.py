@@ -80,7 +80,7 @@ def _layouts(quick, seed, preset):
 def _cases(name, V, F, UV, FUV, seed, quick):
     """Generated damage on one good layout: ``[(case, UV, FUV, island faces, info)]``."""
     from neuraluv.repair import damage
-    from neuraluv.repair.diagnose import layout_facts
+    from neuraluv.layout.facts import layout_facts
 
     f = layout_facts(V, F, UV, FUV)
     sizes = np.bincount(f.label[f.label >= 0], minlength=f.n_islands)
@@ -147,12 +147,11 @@ def mouette_untangle(V, F, UV, *, scale):
 
 def _verdict(path):
     from neuraluv.atlas.export import read_atlas
-    from neuraluv.atlas.validate import validate_atlas
-    from neuraluv.repair.diagnose import layout_facts
+    from neuraluv.layout.validate import validate_layout
 
     V, F, UV, FUV = read_atlas(path)
-    v = validate_atlas(V, F, UV, FUV, check_padding=False)
-    mirrored = int(layout_facts(V, F, UV, FUV).mirrored.sum())
+    v = validate_layout(V, F, UV, FUV, check_padding=False)
+    mirrored = v["mirrored_islands"]
     fixed = bool(v["valid"] and mirrored == 0 and v["covered_faces"] == v["faces"])
     return fixed, v, mirrored, (UV, FUV)
 
@@ -170,9 +169,9 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
     import tempfile
 
     from neuraluv.io import write_obj
-    from neuraluv.repair.diagnose import layout_facts
+    from neuraluv.layout.facts import layout_facts
     from neuraluv.repair.repair import repair_layout
-    from neuraluv.repair.untangle import reference_scale
+    from neuraluv.layout.facts import texel_density
 
     out_dir = Path(output)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -192,7 +191,7 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
     warmed = False
     for name, V, F, UV, FUV, kind in layouts:
         f0 = layout_facts(V, F, UV, FUV)
-        base_scale = reference_scale(f0.Vn, F, UV, FUV)
+        base_scale = texel_density(f0.Vn, F, UV, FUV)
         if kind == "good":
             cases = _cases(name, V, F, UV, FUV, seed, quick)
         else:
@@ -229,7 +228,8 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
                    "damage": info}
             if have_mouette and kind in ("good", "broken") and f0.n_islands == 1 and case in ("local fold", "vertex noise", "as produced"):
                 try:
-                    scale = reference_scale(f0.Vn, F, uvd, fuvd) or base_scale
+                    scale = texel_density(f0.Vn, F, uvd, fuvd)
+                    scale = scale if np.isfinite(scale) else base_scale
                     if not warmed:  # numba compiles on the first call: not timed
                         mouette_untangle(V, F, uvd, scale=scale)
                         warmed = True

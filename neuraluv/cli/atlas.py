@@ -16,7 +16,7 @@ from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_opti
                                   positive_int, time_budget_option)
 from neuraluv.cli.paths import check_paths
 from neuraluv.errors import NeuralUVError
-from neuraluv.packing import ORDER_MAX_ISLANDS, PACK_TRIALS, PACKERS
+from neuraluv.layout.pack import ORDER_MAX_ISLANDS, PACK_TRIALS, PACKERS
 
 __all__ = ["register"]
 
@@ -143,7 +143,7 @@ def cmd_check_uv(args):
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.atlas.validate import validate_atlas
+    from neuraluv.layout.validate import validate_layout
     from neuraluv.io import patch_obj, write_json
     from neuraluv.repair.repair import repair_layout
     from neuraluv.solver.device import resolve_device
@@ -165,7 +165,7 @@ def cmd_repair(args):
         written = {"format": out.suffix.lower()}
     # the verdict is taken on the written file
     V2, F2, UV2, FUV2 = read_atlas(out)
-    back = validate_atlas(V2, F2, UV2, FUV2, check_padding=False)
+    back = validate_layout(V2, F2, UV2, FUV2, check_padding=False)
     rep = res.report()
     rep["written"] = written
     rep["readback"] = back

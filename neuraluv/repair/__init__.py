@@ -9,11 +9,12 @@ are NumPy/SciPy/shapely and do not import torch.
 ``diagnose``   every problem of a layout, where it is, and what repair does
 ``untangle``   Garanzha et al. 2021 untangling; flip-free polish of the stable objective
 ``local``      fold repair in the smallest ring-grown region that works
-``place``      moving islands into free space (raster search, exact check)
-``overlap``    exact pairwise triangle overlap tests
 ``repair``     the escalation for a whole layout, the diff and the report
-``bench``      generated damage for ``neuraluv bench repair``
+``damage``     generated damage for ``neuraluv bench repair``
 =============  ==============================================================
+
+What a layout is — its facts, overlaps, validation, island placement and packing —
+lives in :mod:`neuraluv.layout`, shared with the atlas.
 """
 from __future__ import annotations
 

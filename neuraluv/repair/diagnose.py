@@ -1,25 +1,13 @@
-"""Diagnose a supplied UV layout, per face and per island, and say what repair will do.
+"""Diagnose a supplied UV layout, per island, and say what repair will do (``neuraluv check --uv``).
 
-:func:`layout_facts` reads the layout once (which faces have usable UVs, the
-islands, every face's det J, each island's texel density and orientation);
-:func:`diagnose_layout` turns those facts into a list of named problems with
-their location (3D centroid, UV box) and the repair action, and the warnings
-that repair leaves alone (padding between untouched islands, texel-density
-spread). ``neuraluv check --uv IN`` prints it.
-
-Definitions (one place for all of them):
-
-* a face is **missing** when a corner has no ``vt`` index, **non-finite** when a
-  corner's ``vt`` is NaN or infinite;
-* **islands** are the faces with usable UVs joined through shared ``vt`` rows;
-* **flipped**: ``det J < 0``; **degenerate**: ``det J = 0`` (both fail
-  :func:`~neuraluv.atlas.validate.validate_atlas`);
-* an island is **mirrored** when its flipped faces cover more UV area than its
-  positive ones (the whole island was reflected, not folded);
-* **overlaps** are pairs of positively oriented triangles whose interiors share
-  area (:func:`~neuraluv.repair.overlap.overlapping_pairs`), within an island
-  (a self-overlap) or between islands;
-* **texel density** of an island is ``sqrt(Σ A_uv / Σ A_3d)`` over its positive faces.
+:func:`diagnose_layout` reads the layout's facts once
+(:func:`~neuraluv.layout.facts.layout_facts`: usable faces, islands, det J, mirrored
+islands, texel densities; the definitions are there) and turns them into a list of
+named problems with their location (3D centroid, UV box) and the repair action,
+and the warnings that repair leaves alone (padding between untouched islands,
+texel-density spread, faces without 3D area). Overlaps are the exact triangle-pair
+tests of :mod:`neuraluv.layout.overlap`; the validation is
+:func:`~neuraluv.layout.validate.validate_facts` of the same facts.
 """
 from __future__ import annotations
 
@@ -27,181 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from neuraluv.jacobian import signed_areas_2d
-from neuraluv.meshfix import face_areas, normalize_unit_box
-from neuraluv.metrics import face_dets
-from neuraluv.topology import faces_sharing
+from neuraluv import __version__
+from neuraluv.io import jsonable
+from neuraluv.layout.facts import face_clusters, layout_facts
+from neuraluv.layout.validate import validate_facts
 
-__all__ = ["LayoutFacts", "layout_facts", "face_clusters", "UVDiagnosis", "diagnose_layout", "find_overlaps"]
-
-
-@dataclass
-class LayoutFacts:
-    """What :func:`layout_facts` reads off a layout (arrays over faces unless noted).
-
-    Attributes
-    ----------
-    Vn : (n,3) float array, the mesh normalised to the unit box (distortion is measured on it).
-    F : (m,3) int array; UV : (p,2) float array; FUV : (m,3) int array (-1 where a corner has no ``vt``).
-    missing, non_finite : (m,) bool arrays.
-    label : (m,) int array, island of each usable face (-1 for missing / non-finite faces).
-    n_islands : int
-    det : (m,) float array, det J (NaN for unusable faces); positive faces are valid.
-    signed_uv : (m,) float array, signed UV areas; area3d : (m,) float array.
-    density : (n_islands,) float array, texel density (NaN when the island has no positive face).
-    mirrored : (n_islands,) bool array.
-    degenerate3d : (m,) bool array, faces with no 3D area (distortion is undefined; their UVs are left alone).
-    """
-
-    Vn: np.ndarray
-    F: np.ndarray
-    UV: np.ndarray
-    FUV: np.ndarray
-    missing: np.ndarray
-    non_finite: np.ndarray
-    label: np.ndarray
-    n_islands: int
-    det: np.ndarray
-    signed_uv: np.ndarray
-    area3d: np.ndarray
-    density: np.ndarray
-    mirrored: np.ndarray
-    degenerate3d: np.ndarray
-
-    def island_faces(self, i):
-        """Face indices of island ``i``."""
-        return np.flatnonzero(self.label == i)
-
-    @property
-    def usable(self):
-        return self.label >= 0
-
-    @property
-    def bad(self):
-        """Usable faces that fail validation (flipped or degenerate in UV; faces with no 3D area excluded)."""
-        return self.usable & ~(self.det > 0) & ~self.degenerate3d
-
-    @property
-    def median_density(self):
-        d = self.density[np.isfinite(self.density)]
-        return float(np.median(d)) if len(d) else None
-
-
-def layout_facts(V, F, UV, FUV):
-    """Read a layout once: usable faces, islands, det J, densities, mirrored islands.
-
-    Parameters
-    ----------
-    V : (n,3) float array
-    F : (m,3) int array
-    UV : (p,2) float array
-    FUV : (m,3) int array
-        ``vt`` index of every corner; -1 (or out of range) where a face has none.
-
-    Returns
-    -------
-    LayoutFacts
-
-    Examples
-    --------
-    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]); F = np.array([[0, 1, 2], [1, 3, 2]])
-    >>> UV = np.array([[0.1, 0.1], [0.4, 0.1], [0.1, 0.4], [0.4, 0.4]])
-    >>> f = layout_facts(V, F, UV, F)
-    >>> f.n_islands, f.bad.tolist(), bool(f.mirrored[0])
-    (1, [False, False], False)
-    >>> layout_facts(V, F, UV * [-1, 1], F).mirrored.tolist()
-    [True]
-    """
-    Vn = normalize_unit_box(np.asarray(V, float))[0]
-    F = np.asarray(F, np.int64)
-    UV = np.asarray(UV, float).reshape(-1, 2)
-    FUV = np.asarray(FUV, np.int64)
-    m = len(F)
-    in_range = (FUV >= 0) & (FUV < len(UV))
-    missing = ~in_range.all(1)
-    FUV = np.where(in_range, FUV, -1)
-    fin = np.zeros(m, bool)
-    fin[~missing] = np.isfinite(UV[FUV[~missing]]).all(axis=(1, 2))
-    non_finite = ~missing & ~fin
-    usable = ~missing & fin
-    label = -np.ones(m, np.int64)
-    n = 0
-    if usable.any():
-        n, lab = faces_sharing(FUV[usable].reshape(-1), np.repeat(np.arange(int(usable.sum())), 3), int(usable.sum()))
-        label[usable] = lab
-    det = np.full(m, np.nan)
-    signed = np.full(m, np.nan)
-    if usable.any():
-        det[usable] = face_dets(Vn, F[usable], UV, FUV[usable])
-        signed[usable] = signed_areas_2d(UV, FUV[usable])
-    a3 = face_areas(Vn, F)
-    deg3 = ~(a3 > 1e-14)
-    pos = usable & (det > 0) & ~deg3
-    lab_u = label[usable]
-    s_u = np.nan_to_num(signed[usable])
-    area_pos = np.bincount(lab_u, weights=np.where(s_u > 0, s_u, 0.0), minlength=n)
-    area_neg = np.bincount(lab_u, weights=np.where(s_u < 0, -s_u, 0.0), minlength=n)
-    mirrored = area_neg > area_pos
-    a3_pos = np.bincount(label[pos], weights=a3[pos], minlength=n)
-    auv_pos = np.bincount(label[pos], weights=signed[pos], minlength=n)
-    # a mirrored island's density is measured on its (flipped) faces' unsigned area
-    neg = usable & (det < 0)
-    a3_neg = np.bincount(label[neg], weights=a3[neg], minlength=n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        density = np.where(mirrored, np.sqrt(area_neg / a3_neg), np.sqrt(auv_pos / a3_pos))
-    density = np.where(np.isfinite(density) & (density > 0), density, np.nan)
-    return LayoutFacts(Vn=Vn, F=F, UV=UV, FUV=FUV, missing=missing, non_finite=non_finite, label=label, n_islands=int(n),
-                       det=det, signed_uv=signed, area3d=a3, density=density, mirrored=mirrored, degenerate3d=deg3)
-
-
-def face_clusters(FUV, faces):
-    """Group ``faces`` into clusters joined through shared ``vt`` rows: ``[array, ...]``, largest first."""
-    faces = np.asarray(faces, np.int64)
-    if not len(faces):
-        return []
-    n, lab = faces_sharing(np.asarray(FUV)[faces].reshape(-1), np.repeat(np.arange(len(faces)), 3), len(faces))
-    out = [faces[lab == k] for k in range(n)]
-    return sorted(out, key=len, reverse=True)
-
-
-def find_overlaps(facts, faces=None):
-    """Overlapping pairs of UV triangles oriented like their island (positive; reversed in a mirrored island).
-
-    Parameters
-    ----------
-    facts : LayoutFacts
-    faces : int array, optional
-        Restrict the test to pairs with at least one face in this set (default: all).
-
-    Returns
-    -------
-    i, j : (k,) int arrays, face indices (``i < j`` when ``faces`` is None).
-    area : (k,) float array, their shared UV area.
-    """
-    from neuraluv.repair.overlap import candidate_pairs, overlapping_pairs, pair_areas
-
-    lab = np.where(facts.usable, facts.label, 0)
-    mirrored = facts.mirrored[lab] if facts.n_islands else np.zeros(len(lab), bool)
-    # faces oriented like their island (a mirrored island's reversed faces are its regular ones)
-    pos = np.flatnonzero(facts.usable & np.where(mirrored, facts.det < 0, facts.det > 0))
-    tri = facts.UV[facts.FUV[pos]]
-    if faces is None:
-        a, b = candidate_pairs(tri)
-    else:
-        sel = np.isin(pos, faces)
-        sub = np.flatnonzero(sel)
-        a, b = candidate_pairs(tri[sub], tri)
-        a = sub[a]
-        keep = a != b
-        a, b = a[keep], b[keep]
-        lo, hi = np.minimum(a, b), np.maximum(a, b)
-        both = np.unique(np.stack([lo, hi], 1), axis=0) if len(lo) else np.zeros((0, 2), np.int64)
-        a, b = both[:, 0], both[:, 1]
-    hit = overlapping_pairs(tri[a], tri[b])
-    a, b = a[hit], b[hit]
-    area = pair_areas(tri[a], tri[b])
-    keep = area > 0
-    return pos[a[keep]], pos[b[keep]], area[keep]
+__all__ = ["UVDiagnosis", "diagnose_layout"]
 
 
 @dataclass
@@ -217,7 +36,7 @@ class UVDiagnosis:
         (the first 1,000), ``where`` (3D centroid of the faces, in the input's coordinates, and UV box),
         ``action`` (what ``neuraluv repair`` does).
     warnings : list of dict, the same fields; conditions repair leaves as they are.
-    validation : dict, :func:`~neuraluv.atlas.validate.validate_atlas` of the layout as given.
+    validation : dict, :func:`~neuraluv.layout.validate.validate_facts` of the layout as given.
     """
 
     faces: int
@@ -235,9 +54,6 @@ class UVDiagnosis:
         return not self.problems
 
     def as_dict(self):
-        from neuraluv import __version__
-        from neuraluv.io import jsonable
-
         return jsonable({"neuraluv": __version__, "faces": self.faces, "ok": self.ok, "problems": self.problems,
                          "warnings": self.warnings, "islands": self.islands, "validation": self.validation,
                          "resolution": self.resolution, "padding_texels": self.padding, **self.info})
@@ -304,8 +120,8 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         Texture resolution at which padding is measured.
     padding : float
         Required gap between islands, in texels (a warning when violated).
-    facts : LayoutFacts, optional
-        Already computed.
+    facts : :class:`~neuraluv.layout.facts.LayoutFacts`, optional
+        Already computed (of the same layout).
 
     Returns
     -------
@@ -323,8 +139,6 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
     >>> [p["kind"] for p in d.problems]              # the fold also lays triangles over their neighbours
     ['folded_faces', 'self_overlap']
     """
-    from neuraluv.atlas.validate import validate_atlas
-
     F = np.asarray(F, np.int64)
     FUV = F if FUV is None else np.asarray(FUV, np.int64)
     f = facts if facts is not None else layout_facts(V, F, UV, FUV)
@@ -341,7 +155,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         problems.append(_problem("non_finite_uv", f"{int(f.non_finite.sum()):,} faces with NaN or infinite texture coordinates",
                                  "give them new charts (solved, at the layout's median texel density, placed in free space)",
                                  np.flatnonzero(f.non_finite), *args))
-    ii, jj, area = find_overlaps(f) if f.usable.any() else (np.zeros(0, int),) * 2 + (np.zeros(0),)
+    ii, jj, area = f.overlaps()
     li, lj = f.label[ii], f.label[jj]
     same = li == lj
     islands = []
@@ -402,7 +216,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
             problems.append(_problem("island_overlap", f"islands {a} and {b} overlap (area {ar:.3g})",
                                      "move one of them (the smaller, or the one repair already changed) into free space",
                                      np.unique(np.concatenate([ii[sel], jj[sel]])), *args, islands=[a, b], area=ar))
-    val = validate_atlas(f.Vn, F, UVf, FU, padding=padding, resolution=resolution)
+    val = validate_facts(f, padding=padding, resolution=resolution)
     if val["padding_violations"]:
         warnings.append({"kind": "padding", "message": f"{val['padding_violations']} island pairs closer than "
                          f"{padding:g} texels at {resolution} px (closest {val['min_gap_texels']})",

@@ -30,7 +30,9 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from neuraluv.repair.untangle import RegionEnergy, polish, reference_scale, untangle
+from neuraluv.layout.facts import texel_density
+from neuraluv.layout.overlap import overlap_pairs
+from neuraluv.repair.untangle import RegionEnergy, polish, untangle
 
 __all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd"]
 
@@ -59,17 +61,8 @@ class IslandGraph:
 
 
 def region_overlaps(UV, FUV, region, island):
-    """Number of overlapping triangle pairs between ``region`` faces and ``island`` faces (exact)."""
-    from neuraluv.repair.overlap import candidate_pairs, overlapping_pairs
-
-    A = UV[FUV[region]]
-    B = UV[FUV[island]]
-    a, b = candidate_pairs(A, B)
-    keep = region[a] != island[b]
-    a, b = a[keep], b[keep]
-    if not len(a):
-        return 0
-    return int(overlapping_pairs(A[a], B[b]).sum())
+    """Number of overlapping triangle pairs with a face in ``region`` among the ``island``'s faces (exact)."""
+    return len(overlap_pairs(UV, FUV, island, region)[0])
 
 
 def region_esd(Vn, F, UV, FUV, faces, scale):
@@ -209,7 +202,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     scale : float
         The island's texel density: the fallback when the region and the two
         rings around it have no valid face. Each attempt measures the density
-        of that neighbourhood (:func:`~neuraluv.repair.untangle.reference_scale`)
+        of that neighbourhood (:func:`~neuraluv.layout.facts.texel_density`)
         and untangles, polishes and compares at it.
     config, seed, device, deadline
         For the neural step.
@@ -244,7 +237,8 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         """Texel density of the region and two rings around it: a layout's density may vary over an island
         (a conformal map shrinks protrusions), and the pinned ring fixes the room the region has."""
         near = graph.faces_touching(graph.grow(graph.grow(rows)))
-        return reference_scale(Vn, F, UV, FUV, faces=near) or scale
+        d = texel_density(Vn, F[near], UV, FUV[near])
+        return d if np.isfinite(d) else scale
 
     def attempt(rows):
         """Untangle + polish with ``rows`` free: ``(map or None, details)``."""

@@ -13,7 +13,7 @@ and fixes each problem with the smallest change that works, in this order:
 4. faces with **missing or non-finite UVs** get new charts, solved like ``atlas``
    does, at the layout's median texel density;
 5. islands that **overlap each other**, lie **outside [0,1]²**, or are new are
-   moved into free space (:func:`~neuraluv.repair.place.place_island`): only the
+   moved into free space (:class:`~neuraluv.layout.place.FreeSpace`): only the
    islands involved, translated and if needed turned by quarter turns, never
    mirrored, scaled down only when they fit nowhere (reported); the whole layout
    is repacked only when even that fails.
@@ -22,7 +22,7 @@ Every other ``vt`` row stays bit-identical; the result records, per island,
 what changed (faces, rows, the largest UV displacement in texels) and the
 before/after distortion. A layout with nothing wrong is returned unchanged.
 
-Size: the escalation of :func:`repair_layout` (reflect, local, whole island, new charts, separation) and its report are read top to bottom as one procedure; the steps themselves live in :mod:`~neuraluv.repair.local`, :mod:`~neuraluv.repair.place` and :mod:`~neuraluv.repair.untangle`.
+Size: the escalation of :func:`repair_layout` (reflect, local, whole island, new charts, separation) and its report are read top to bottom as one procedure; the steps themselves live in :mod:`~neuraluv.repair.local`, :mod:`~neuraluv.repair.untangle` and :mod:`neuraluv.layout` (facts, overlaps, placement, packing).
 """
 from __future__ import annotations
 
@@ -32,9 +32,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from neuraluv.errors import NeuralUVError
-from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout, face_clusters, find_overlaps, layout_facts
+from neuraluv.layout.facts import face_clusters, layout_facts
+from neuraluv.layout.overlap import overlap_pairs, triangles_union
+from neuraluv.layout.pack import shelf_pack
+from neuraluv.layout.place import FreeSpace
+from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box
+from neuraluv.metrics import face_dets
+from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
 from neuraluv.repair.local import IslandGraph, region_esd, region_overlaps, repair_cluster
-from neuraluv.repair.place import island_polygon, occupancy, place_island
 from neuraluv.repair.untangle import polish, untangle
 
 __all__ = ["RepairResult", "repair_layout", "SHRINK_SCALES"]
@@ -121,18 +126,6 @@ class RepairResult:
         return plot_repair(self, title=title)
 
 
-def _procrustes_rotation(src, dst):
-    """Rotation (no reflection) and translation taking ``src`` closest to ``dst``: returns ``R (2,2)``, ``t (2,)``."""
-    cs, cd = src.mean(0), dst.mean(0)
-    H = (src - cs).T @ (dst - cd)
-    U, _, Vt = np.linalg.svd(H)
-    R = (U @ Vt).T
-    if np.linalg.det(R) < 0:
-        U[:, -1] *= -1
-        R = (U @ Vt).T
-    return R, cd - cs @ R.T
-
-
 def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadline):
     """Re-solve an island as a chart (atlas router), scaled to ``density`` and fitted to where it was.
 
@@ -154,8 +147,8 @@ def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadli
             old = UV[rows[vl]]
             okp = np.isfinite(old).all(1)
             if okp.sum() >= 2:
-                R, t = _procrustes_rotation(new[okp], old[okp])
-                new = new @ R.T + t
+                R, _, t = rigid_fit(new[okp], old[okp])
+                new = new @ R + t
             pieces.append((faces[fl], new, Fl, rows[vl]))
     return pieces, routes
 
@@ -281,11 +274,12 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
             UVw, FUVw, new_charts = _new_charts(Vn, F, UVw, FUVw, lost, med, cfg, seed=seed, device=device,
                                                 deadline=deadline)
     # 5. overlaps between islands, out of the square, new islands: move the fewest
-    UVw, FUVw, placements, repacked = _separate(V, F, UVw, FUVw, facts, movers_pref, new_charts, resolution, padding)
+    UVw, FUVw, placements, repacked = _separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding)
     for i, pl in placements.items():
         if i >= 0:
             actions[i].append(pl)
-    after = diagnose_layout(V, F, UVw, FUVw, resolution=resolution, padding=padding)
+    after = diagnose_layout(V, F, UVw, FUVw, resolution=resolution, padding=padding,
+                            facts=layout_facts(Vn, F, UVw, FUVw, normalized=True))
     changed_rows = np.ones(len(UVw), bool)
     changed_rows[:p_in] = ~_same_bits(UVw[:p_in], UV)
     changed_faces = (FUVw != FUV).any(1) | changed_rows[FUVw].any(1)
@@ -322,30 +316,14 @@ def _same_bits(A, B):
 
 
 def _dets(Vn, F, UV, FUV, faces):
-    from neuraluv.metrics import face_dets
-
     faces = np.asarray(faces, np.int64)
     return face_dets(Vn, F[faces], UV, FUV[faces]) if len(faces) else np.zeros(0)
 
 
 def _self_overlap_faces(UV, FUV, island, det, subset=None):
     """Positive faces of ``island`` (or of ``subset``) overlapping another positive face of the island."""
-    from neuraluv.repair.overlap import candidate_pairs, overlapping_pairs
-
-    pos = island[det > 0]
-    if len(pos) < 2:
-        return np.zeros(0, np.int64)
-    tri = UV[FUV[pos]]
-    if subset is None:
-        a, b = candidate_pairs(tri)
-    else:
-        sub = np.flatnonzero(np.isin(pos, subset))
-        a, b = candidate_pairs(tri[sub], tri)
-        a = sub[a]
-        keep = a != b
-        a, b = a[keep], b[keep]
-    hit = overlapping_pairs(tri[a], tri[b])
-    return np.unique(np.concatenate([pos[a[hit]], pos[b[hit]]]))
+    a, b = overlap_pairs(UV, FUV, island[det > 0], subset)
+    return np.unique(np.concatenate([a, b]))
 
 
 def _with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
@@ -428,12 +406,13 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
     return UVo, FUVo, out
 
 
-def _separate(V, F, UV, FUV, facts0, prefer, new_charts, resolution, padding):
+def _separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding):
     """Move the fewest islands so that none overlaps another or leaves [0,1]²; new islands are placed too.
 
-    Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action}, repacked``.
+    ``Vn`` is the unit-box mesh. Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action},
+    repacked``.
     """
-    f = layout_facts(V, F, UV, FUV)
+    f = layout_facts(Vn, F, UV, FUV, normalized=True)
     # map current islands to input islands (-1: new)
     origin = -np.ones(f.n_islands, np.int64)
     for j in range(f.n_islands):
@@ -442,7 +421,7 @@ def _separate(V, F, UV, FUV, facts0, prefer, new_charts, resolution, padding):
         lab0 = lab0[lab0 >= 0]
         if len(lab0):
             origin[j] = np.bincount(lab0).argmax()
-    ii, jj, _ = find_overlaps(f)
+    ii, jj, _ = f.overlaps()
     li, lj = f.label[ii], f.label[jj]
     cross = li != lj
     edges = {(int(min(a, b)), int(max(a, b))) for a, b in zip(li[cross], lj[cross])}
@@ -464,9 +443,8 @@ def _separate(V, F, UV, FUV, facts0, prefer, new_charts, resolution, padding):
         edges = {e for e in edges if pick not in e}
     if not movers:
         return UV, FUV, {}, False
-    fixed = [island_polygon(UV, f.FUV[f.island_faces(j)]) for j in range(f.n_islands) if j not in movers]
-    grid = min(max(int(resolution), 256), 4096)
-    occ = occupancy(fixed, grid, float(padding) / float(resolution))
+    space = FreeSpace([triangles_union(UV, f.FUV[f.island_faces(j)])[0] for j in range(f.n_islands) if j not in movers],
+                      resolution=resolution, padding=padding)
     UVo = UV.copy()
     FUVo = FUV.copy()
     placements = {}
@@ -478,17 +456,14 @@ def _separate(V, F, UV, FUV, facts0, prefer, new_charts, resolution, padding):
         T = np.searchsorted(rows, f.FUV[fj])
         pl = None
         for scales in ((1.0,), SHRINK_SCALES[1:]):
-            pl = place_island(UVo[rows], T, fixed, resolution=resolution, padding=padding, grid=grid, occ=occ,
-                              scales=scales)
+            pl = space.place(UVo[rows], T, scales=scales)
             if pl.uv is not None:
                 break
         if pl is None or pl.uv is None:
             failed = True
             break
         UVo[rows] = pl.uv
-        P = island_polygon(UVo, f.FUV[fj])
-        fixed.append(P)
-        occ |= occupancy([P], grid, float(padding) / float(resolution))
+        space.add(triangles_union(UVo, f.FUV[fj])[0])
         key = int(origin[j]) if origin[j] >= 0 else -1 - len([k for k in placements if k < 0])
         placements[key] = {"step": "moved", "quarter_turns": pl.turns, "scale": pl.scale,
                            "shift": [float(x) for x in pl.shift], "distance": pl.distance,
@@ -496,8 +471,6 @@ def _separate(V, F, UV, FUV, facts0, prefer, new_charts, resolution, padding):
     if not failed:
         return UVo, FUVo, placements, False
     # nothing else fits: repack every island at a common scale (reported)
-    from neuraluv.packing import rotate_to_min_box, shelf_pack
-
     uvs, tris, parts = [], [], []
     for j in range(f.n_islands):
         fj = f.island_faces(j)

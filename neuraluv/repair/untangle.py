@@ -20,46 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neuraluv.jacobian import local_frames, signed_areas_2d
-from neuraluv.meshfix import face_areas
+from neuraluv.jacobian import local_frames
 
-__all__ = ["RegionEnergy", "untangle", "polish", "reference_scale", "stable_energy_terms"]
-
-
-def reference_scale(V, F, UV, FUV=None, faces=None):
-    """Texel density of a layout: UV length per 3D length, ``sqrt(Σ A_uv / Σ A_3d)``.
-
-    Parameters
-    ----------
-    V : (n,3) float array
-    F : (m,3) int array
-    UV : (p,2) float array
-    FUV : (m,3) int array, optional (default ``F``)
-    faces : (k,) int array, optional
-        Faces to measure on (default: all); only faces with a finite, positive UV area count.
-
-    Returns
-    -------
-    float or None
-        None when no face qualifies.
-
-    Examples
-    --------
-    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
-    >>> reference_scale(V, F, 0.25 * V[:, :2])
-    0.25
-    """
-    F = np.asarray(F, np.int64)
-    FUV = F if FUV is None else np.asarray(FUV, np.int64)
-    idx = np.arange(len(F)) if faces is None else np.asarray(faces, np.int64)
-    if not len(idx):
-        return None
-    a2 = signed_areas_2d(np.asarray(UV, float), FUV[idx])
-    a3 = face_areas(np.asarray(V, float), F[idx])
-    ok = np.isfinite(a2) & (a2 > 0) & (a3 > 0)
-    if not ok.any():
-        return None
-    return float(np.sqrt(a2[ok].sum() / a3[ok].sum()))
+__all__ = ["RegionEnergy", "untangle", "polish", "stable_energy_terms"]
 
 
 def stable_energy_terms(fro2, det, eps_J=1e-4):
@@ -203,7 +166,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     free : (k,) int array
         Rows of ``UV`` that may move.
     scale : float
-        Target texel density (UV length per 3D length, :func:`reference_scale`).
+        Target texel density (UV length per 3D length, :func:`~neuraluv.layout.facts.texel_density`).
     theta : float
         Weight of the area term (the paper's ½).
     max_outer, inner : int
@@ -233,9 +196,10 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     >>> from neuraluv.datasets import disk
     >>> from neuraluv.tutte import tutte
     >>> from neuraluv.metrics import face_dets
+    >>> from neuraluv.layout.facts import texel_density
     >>> V, F = disk(3); UV = tutte(V, F); UV[0] += [0.6, 0.1]        # fold the centre over
     >>> faces = np.flatnonzero((F == 0).any(1))
-    >>> out, info = untangle(V, F, UV, F, faces, [0], scale=reference_scale(V, F, tutte(V, F)))
+    >>> out, info = untangle(V, F, UV, F, faces, [0], scale=texel_density(V, F, tutte(V, F)))
     >>> int((face_dets(V, F, UV) <= 0).sum()) > 0, info["ok"], int((face_dets(V, F, out) <= 0).sum())
     (True, True, 0)
     >>> bool(np.array_equal(np.delete(out, 0, 0), np.delete(UV, 0, 0)))      # nothing else moved
@@ -324,7 +288,8 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
     >>> from neuraluv.datasets import spherical_cap
     >>> from neuraluv.tutte import tutte
     >>> from neuraluv.metrics import distortion_metrics
-    >>> V, F = spherical_cap(4); UV = tutte(V, F); s = reference_scale(V, F, UV)
+    >>> from neuraluv.layout.facts import texel_density
+    >>> V, F = spherical_cap(4); UV = tutte(V, F); s = texel_density(V, F, UV)
     >>> out, info = polish(V, F, UV, F, np.arange(len(F)), np.arange(len(V)), scale=s)
     >>> bool(info["energy_after"] < info["energy_before"]), distortion_metrics(V, F, out)["flips"]
     (True, 0)

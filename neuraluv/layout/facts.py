@@ -1,0 +1,301 @@
+"""The facts of a UV layout over a mesh, read once: faces, islands, det J, orientation, texel density.
+
+Every client of a layout — the atlas's validation, ``check --uv``, repair and the
+benchmarks — asks the same questions of it; they are answered here, once, and
+carried in a :class:`LayoutFacts`:
+
+* a face is **missing** when a corner has no ``vt`` index, **non-finite** when a
+  corner's ``vt`` is NaN or infinite; the others are **usable**;
+* **islands** are the usable faces joined through shared ``vt`` rows (:func:`uv_islands`);
+* **det J** of every usable face (:func:`~neuraluv.metrics.face_dets`) on the mesh
+  normalised to the unit box; a face with no 3D area (``degenerate3d``) has no
+  distortion and is neither valid nor invalid;
+* an island is **mirrored** when its faces with reversed orientation cover more
+  UV area than the others (the island was reflected as a whole, not folded);
+* the **texel density** of an island (:func:`texel_density`) is
+  ``sqrt(Σ |A_uv| / Σ A_3d)`` over its faces oriented like the island.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from neuraluv.jacobian import signed_areas_2d
+from neuraluv.meshfix import face_areas, normalize_unit_box
+from neuraluv.metrics import face_dets
+from neuraluv.topology import faces_sharing
+
+__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "face_clusters", "texel_density", "face_texel_density",
+           "density_spread", "DEGENERATE_3D_AREA"]
+
+#: Faces of the unit-box mesh with less 3D area than this have no distortion (their UVs are left alone).
+DEGENERATE_3D_AREA = 1e-14
+
+
+def uv_islands(FUV):
+    """Label faces by UV island: faces sharing a ``vt`` index are connected.
+
+    Parameters
+    ----------
+    FUV : (m,3) int array
+
+    Returns
+    -------
+    n : int
+    labels : (m,) int array
+
+    Examples
+    --------
+    >>> uv_islands(np.array([[0, 1, 2], [2, 1, 3], [4, 5, 6]]))[1].tolist()
+    [0, 0, 1]
+    """
+    FUV = np.asarray(FUV, np.int64)
+    return faces_sharing(FUV.reshape(-1), np.repeat(np.arange(len(FUV)), 3), len(FUV))
+
+
+def face_clusters(FUV, faces):
+    """Group ``faces`` into clusters joined through shared ``vt`` rows, largest first.
+
+    Examples
+    --------
+    >>> [c.tolist() for c in face_clusters(np.array([[0, 1, 2], [5, 6, 7], [2, 3, 4]]), [0, 1, 2])]
+    [[0, 2], [1]]
+    """
+    faces = np.asarray(faces, np.int64)
+    if not len(faces):
+        return []
+    n, lab = faces_sharing(np.asarray(FUV)[faces].reshape(-1), np.repeat(np.arange(len(faces)), 3), len(faces))
+    return sorted((faces[lab == k] for k in range(n)), key=len, reverse=True)
+
+
+def _density(signed, a3, label, n, count=None):
+    """Per group: mirrored (reversed faces hold more UV area) and ``sqrt(Σ|A_uv| / ΣA_3d)`` over the
+    faces oriented like the group (and in ``count``); NaN where no face counts."""
+    s = np.nan_to_num(np.asarray(signed, float), nan=0.0, posinf=0.0, neginf=0.0)
+    pos = np.bincount(label, weights=np.where(s > 0, s, 0.0), minlength=n)
+    neg = np.bincount(label, weights=np.where(s < 0, -s, 0.0), minlength=n)
+    mirrored = neg > pos
+    ok = (a3 > 0) if count is None else (count & (a3 > 0))
+    like = ok & np.where(mirrored[label], s < 0, s > 0)
+    a2 = np.bincount(label[like], weights=np.abs(s[like]), minlength=n)
+    a3s = np.bincount(label[like], weights=a3[like], minlength=n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.sqrt(a2 / a3s)
+    return np.where(np.isfinite(d) & (d > 0), d, np.nan), mirrored
+
+
+def texel_density(V, F, UV, FUV=None, labels=None):
+    """Texel density: UV length per 3D length, ``sqrt(Σ |A_uv| / Σ A_3d)``, per island or overall.
+
+    Only faces oriented like their island (positive, or reversed in a mirrored
+    island) with finite UVs and positive 3D area count, so a fold or a stray face
+    does not bias it. Times the texture resolution it is texels per unit length.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array, optional (default ``F``)
+    labels : (m,) int array, optional
+        Island of each face: one density per label. Without it, one density over all faces.
+
+    Returns
+    -------
+    float, or (max(labels)+1,) float array; NaN where no face counts.
+
+    Notes
+    -----
+    A map whose every triangle keeps its 3D area (``det J = 1``) has density 1;
+    scaling the UVs by ``s`` scales it by ``s``. Islands packed at one density have one
+    checkerboard cell size on the surface.
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
+    >>> float(texel_density(V, F, 0.25 * V[:, :2])), float(texel_density(V, F, -2 * V[:, :2]))
+    (0.25, 2.0)
+    """
+    F = np.asarray(F, np.int64)
+    FUV = F if FUV is None else np.asarray(FUV, np.int64)
+    signed = signed_areas_2d(np.asarray(UV, float), FUV) if len(F) else np.zeros(0)
+    a3 = face_areas(np.asarray(V, float), F) if len(F) else np.zeros(0)
+    if labels is None:
+        return float(_density(signed, a3, np.zeros(len(F), np.int64), 1)[0][0])
+    labels = np.asarray(labels, np.int64)
+    return _density(signed, a3, labels, int(labels.max()) + 1 if len(labels) else 0)[0]
+
+
+def density_spread(density):
+    """Spread of texel densities: ``max / min − 1`` over the finite ones (0 = one density; None if none).
+
+    Examples
+    --------
+    >>> density_spread(np.array([1.0, 1.1, np.nan]))
+    0.10000000000000009
+    """
+    d = np.asarray(density, float)
+    d = d[np.isfinite(d) & (d > 0)]
+    return float(d.max() / d.min() - 1.0) if len(d) else None
+
+
+@dataclass
+class LayoutFacts:
+    """What :func:`layout_facts` reads off a layout (arrays over faces unless noted).
+
+    Attributes
+    ----------
+    Vn : (n,3) float array, the mesh normalised to the unit box (distortion is measured on it).
+    F : (m,3) int array; UV : (p,2) float array; FUV : (m,3) int array (-1 where a corner has no ``vt``).
+    missing, non_finite : (m,) bool arrays.
+    label : (m,) int array, island of each usable face (-1 for missing / non-finite faces).
+    n_islands : int
+    det : (m,) float array, det J (NaN for unusable faces).
+    signed_uv : (m,) float array, signed UV areas; area3d : (m,) float array (of ``Vn``).
+    density : (n_islands,) float array, :func:`texel_density` of each island (in ``Vn`` units).
+    mirrored : (n_islands,) bool array.
+    degenerate3d : (m,) bool array, faces with no 3D area (:data:`DEGENERATE_3D_AREA`).
+    """
+
+    Vn: np.ndarray
+    F: np.ndarray
+    UV: np.ndarray
+    FUV: np.ndarray
+    missing: np.ndarray
+    non_finite: np.ndarray
+    label: np.ndarray
+    n_islands: int
+    det: np.ndarray
+    signed_uv: np.ndarray
+    area3d: np.ndarray
+    density: np.ndarray
+    mirrored: np.ndarray
+    degenerate3d: np.ndarray
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def usable(self):
+        """(m,) bool: faces with three finite UVs."""
+        return self.label >= 0
+
+    @property
+    def bad(self):
+        """(m,) bool: usable faces with det J ≤ 0 (flipped or degenerate in UV; no-3D-area faces excluded)."""
+        return self.usable & ~(self.det > 0) & ~self.degenerate3d
+
+    @property
+    def oriented(self):
+        """(m,) bool: usable faces oriented like their island (positive; reversed in a mirrored island)."""
+        mir = self.mirrored[np.maximum(self.label, 0)] if self.n_islands else np.zeros(len(self.F), bool)
+        return self.usable & np.where(mir, self.det < 0, self.det > 0)
+
+    @property
+    def median_density(self):
+        d = self.density[np.isfinite(self.density)]
+        return float(np.median(d)) if len(d) else None
+
+    def island_faces(self, i):
+        """Face indices of island ``i`` (ascending)."""
+        if "order" not in self._cache:
+            lab = np.where(self.usable, self.label, self.n_islands)
+            order = np.argsort(lab, kind="stable")
+            self._cache["order"] = (order, np.searchsorted(lab[order], np.arange(self.n_islands + 1)))
+        order, bounds = self._cache["order"]
+        return order[bounds[i]:bounds[i + 1]]
+
+    def island_rows(self, i):
+        """The ``vt`` rows of island ``i`` (sorted)."""
+        return np.unique(self.FUV[self.island_faces(i)])
+
+    def overlaps(self):
+        """Overlapping pairs of oriented faces (:func:`~neuraluv.layout.overlap.find_overlaps`), computed once."""
+        if "overlaps" not in self._cache:
+            from neuraluv.layout.overlap import find_overlaps
+
+            self._cache["overlaps"] = find_overlaps(self)
+        return self._cache["overlaps"]
+
+
+def layout_facts(V, F, UV, FUV=None, *, normalized=False):
+    """Read a layout once: usable faces, islands, det J, orientation, texel densities.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array, optional
+        ``vt`` index of every corner (default ``F``); -1 (or out of range) where a face has none.
+    normalized : bool
+        ``V`` is already normalised to the unit box (it is used as it is).
+
+    Returns
+    -------
+    LayoutFacts
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]); F = np.array([[0, 1, 2], [1, 3, 2]])
+    >>> UV = np.array([[0.1, 0.1], [0.4, 0.1], [0.1, 0.4], [0.4, 0.4]])
+    >>> f = layout_facts(V, F, UV, F)
+    >>> f.n_islands, f.bad.tolist(), bool(f.mirrored[0]), round(float(f.density[0]), 6)
+    (1, [False, False], False, 0.3)
+    >>> layout_facts(V, F, UV * [-1, 1], F).mirrored.tolist()
+    [True]
+    """
+    V = np.asarray(V, float)
+    Vn = V if normalized else normalize_unit_box(V)[0]
+    F = np.asarray(F, np.int64)
+    UV = np.asarray(UV, float).reshape(-1, 2)
+    FUV = F if FUV is None else np.asarray(FUV, np.int64)
+    m = len(F)
+    in_range = (FUV >= 0) & (FUV < len(UV))
+    missing = ~in_range.all(1) if m else np.zeros(0, bool)
+    FUV = np.where(in_range, FUV, -1)
+    fin = np.zeros(m, bool)
+    fin[~missing] = np.isfinite(UV[FUV[~missing]]).all(axis=(1, 2))
+    non_finite = ~missing & ~fin
+    usable = ~missing & fin
+    label = -np.ones(m, np.int64)
+    det = np.full(m, np.nan)
+    signed = np.full(m, np.nan)
+    n = 0
+    if usable.any():
+        n, label[usable] = uv_islands(FUV[usable])
+        det[usable] = face_dets(Vn, F[usable], UV, FUV[usable])
+        signed[usable] = signed_areas_2d(UV, FUV[usable])
+    a3 = face_areas(Vn, F) if m else np.zeros(0)
+    deg3 = ~(a3 > DEGENERATE_3D_AREA)
+    lab_u = label[usable]
+    density, mirrored = _density(signed[usable], a3[usable], lab_u, n, count=~deg3[usable])
+    return LayoutFacts(Vn=Vn, F=F, UV=UV, FUV=FUV, missing=missing, non_finite=non_finite, label=label, n_islands=int(n),
+                       det=det, signed_uv=signed, area3d=a3, density=density, mirrored=mirrored, degenerate3d=deg3)
+
+
+def face_texel_density(V, F, UV, FUV=None):
+    """Texel density of each face's island, relative to the median island: 1 everywhere for one density.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    UV : (p,2) float array
+    FUV : (m,3) int array, optional (default ``F``)
+
+    Returns
+    -------
+    (m,) float array
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2], [0, 1, 2]])
+    >>> UV = np.array([[0, 0], [.2, 0], [0, .2], [.5, .5], [.9, .5], [.5, .9]])
+    >>> face_texel_density(V, F, UV, np.array([[0, 1, 2], [3, 4, 5]])).round(3).tolist()
+    [0.667, 1.333]
+    """
+    F = np.asarray(F, np.int64)
+    FUV = F if FUV is None else np.asarray(FUV, np.int64)
+    _, lab = uv_islands(FUV)
+    d = texel_density(V, F, UV, FUV, labels=lab)
+    return d[lab] / np.nanmedian(d)
