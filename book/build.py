@@ -33,9 +33,9 @@ SOURCES = ["_config.yml", "_toc.yml", "intro.md", "glossary.md", "symbols.md", "
 
 
 def write_claims_page(book: Path = BOOK) -> bool:
-    """Regenerate ``claims.md`` from the committed results (``neuraluv.notebook.claims_page``); True when it changed."""
+    """Regenerate ``claims.md`` from the committed results (``neuraluv_paper.claims.claims_page``); True when it changed."""
     sys.path.insert(0, str(book.parent))
-    from neuraluv.notebook import claims_page
+    from neuraluv_paper.claims import claims_page
 
     page = book / "claims.md"
     text = claims_page()

@@ -19,7 +19,7 @@ import time
 
 
 from neuraluv import datasets
-from neuraluv.baselines import run_baseline
+from neuraluv_paper.baselines import run_baseline
 from neuraluv.meshfix import face_areas
 from neuraluv.solver import resolve_device, solve_chart
 

@@ -13,8 +13,8 @@ Layers (each imports only the ones above it in this list):
   :mod:`~neuraluv.plot`, :mod:`~neuraluv.check`, :mod:`~neuraluv.datasets`;
 * :mod:`neuraluv.solver`: the SIREN chart solver (torch);
 * :mod:`neuraluv.atlas`: unwrap, atlas construction, UV repair, sweeps;
-* :mod:`neuraluv.baselines`: libigl, BFF, xatlas, Blender, OptCuts;
-* :mod:`neuraluv.bench`: the paper's tables; :mod:`neuraluv.cli`: the command line.
+* :mod:`neuraluv_paper.baselines`: libigl, BFF, xatlas, Blender, OptCuts;
+* :mod:`neuraluv_paper.bench`: the paper's tables; :mod:`neuraluv.cli`: the command line.
 
 The names below are re-exported lazily: ``import neuraluv`` loads neither
 torch nor scipy.

@@ -268,7 +268,7 @@ def test_bench_atlas_quality_cli_writes_the_table(tmp_path, capsys):
 def test_bench_atlas_quality_generated_from_picks_the_seeds():
     from argparse import Namespace
 
-    from neuraluv.bench.atlas_quality import _assets
+    from neuraluv_paper.bench.atlas_quality import _assets
     from neuraluv.datasets.generated import generated_asset
 
     got = _assets(Namespace(meshes=["glove"], quick=False, generated=2, generated_from=7))

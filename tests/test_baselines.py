@@ -8,7 +8,7 @@ import pytest
 
 from conftest import real_mesh
 from neuraluv import datasets
-from neuraluv.baselines import METHODS, BaselineResult, blender_python, run_baseline
+from neuraluv_paper.baselines import METHODS, BaselineResult, blender_python, run_baseline
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver import ChartResult
 from neuraluv.tutte import tutte
@@ -153,7 +153,7 @@ def test_blender_unwraps_from_loop_uvs():
 
 @pytest.mark.skipif(blender_python() is None, reason="Blender's bpy not installed (`make blender-env`, or set NEURALUV_BPY_PYTHON to a Python with `pip install 'bpy==4.5.*'`)")
 def test_blender_row_counts_flips_on_loop_uvs():
-    from neuraluv.bench.generated import blender_row
+    from neuraluv_paper.bench.generated import blender_row
 
     V, F = datasets.spherical_cap(n_rings=5)
     r = blender_row(V, F, "blender-conformal")

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from neuraluv import datasets
-from neuraluv.baselines.libigl import lscm
+from neuraluv_paper.baselines.libigl import lscm
 from neuraluv.errors import TopologyError
-from neuraluv.baselines.bff import angle_defects, best_fit_curve, bff, dirichlet_to_neumann, oriented_boundary_loop
+from neuraluv_paper.baselines.bff import angle_defects, best_fit_curve, bff, dirichlet_to_neumann, oriented_boundary_loop
 from neuraluv.metrics import distortion_metrics
 from neuraluv.spectral import cotangent_laplacian
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from neuraluv import datasets
-from neuraluv.baselines import bff_binary, optcuts_binary, run_baseline
-from neuraluv.baselines.external import built_binary
+from neuraluv_paper.baselines import bff_binary, optcuts_binary, run_baseline
+from neuraluv_paper.baselines.external import built_binary
 from neuraluv.metrics import distortion_metrics
 
 NO_BFF = "bff-command-line not built (run `make baselines`, or set NEURALUV_BFF)"
@@ -89,7 +89,7 @@ def test_optcuts_binary_on_a_tiny_cap():
 
 @pytest.mark.skipif(bff_binary() is None, reason=NO_BFF)
 def test_bff_agreement_report(tmp_path):
-    from neuraluv.bench.baselines import bff_agreement
+    from neuraluv_paper.bench.baselines import bff_agreement
 
     res = bff_agreement(["disk"], output=tmp_path, repeats=1, show_progress=False)
     assert [r["variant"] for r in res.rows][0] == "ours (Python BFF)" and len(res.rows) == 3

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench import provenance as tables
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench import provenance as tables
 from neuraluv.cli import main
 
 
@@ -73,7 +73,7 @@ def test_cli_lists_every_benchmark(capsys):
 # ------------------------------------------------------------------ runners (quick mode)
 
 def test_compact_quick_rows_statuses_and_resume(tmp_path):
-    from neuraluv.bench.compact import bench
+    from neuraluv_paper.bench.compact import bench
 
     res = bench(quick=True, output=tmp_path, figures=False, show_progress=False)
     rows = {(r["mesh"], r["method"], r["mode"]): r for r in res.rows}
@@ -95,13 +95,13 @@ def test_compact_quick_rows_statuses_and_resume(tmp_path):
 
 
 def test_resume_recomputes_unavailable_rows(tmp_path, monkeypatch):
-    from neuraluv.bench.compact import bench
+    from neuraluv_paper.bench.compact import bench
 
     monkeypatch.setenv("NEURALUV_BFF", str(tmp_path / "missing"))
     first = bench(["disk"], ["lscm", "bff-cli"], quick=True, output=tmp_path, figures=False, show_progress=False)
     assert [r["status"] for r in first.rows] == ["ok", "unavailable"]
     calls = []
-    import neuraluv.baselines as B
+    import neuraluv_paper.baselines as B
 
     real = B.run_baseline
     monkeypatch.setattr(B, "run_baseline", lambda m, *a, **k: calls.append(m) or real(m, *a, **k))
@@ -113,7 +113,7 @@ def test_resume_recomputes_unavailable_rows(tmp_path, monkeypatch):
 def test_compact_greys_flipped_distortion_and_prints_paper_values(tmp_path, monkeypatch):
     """A folding method's distortion is greyed; a paper mesh gets the paper's numbers beside ours."""
     from neuraluv import datasets
-    from neuraluv.bench import compact as bench_compact
+    from neuraluv_paper.bench import compact as bench_compact
 
     def fake_load(names, quick=False):  # the curled glove makes ARAP fold; call it "camel"
         V, F = datasets.glove(res=2, curl=2.5, finger_length=7)
@@ -133,7 +133,7 @@ def test_compact_greys_flipped_distortion_and_prints_paper_values(tmp_path, monk
 
 
 def test_failure_modes_quick(tmp_path):
-    from neuraluv.bench.failure_modes import bench
+    from neuraluv_paper.bench.failure_modes import bench
 
     res = bench(quick=True, output=tmp_path, neural=False, show_progress=False)
     cells = {(r["mesh"], r["method"]): r["cell"] for r in res.rows}
@@ -145,7 +145,7 @@ def test_failure_modes_quick(tmp_path):
 
 
 def test_ablation_quick_reports_invalid_attempt_and_fallback(tmp_path):
-    from neuraluv.bench.ablation import bench
+    from neuraluv_paper.bench.ablation import bench
 
     res = bench(variants=["full", "random init"], quick=True, output=tmp_path, show_progress=False)
     s = {x["variant"]: x for x in res.extra["summary"]}
@@ -159,7 +159,7 @@ def test_ablation_quick_reports_invalid_attempt_and_fallback(tmp_path):
     assert "brackets average Hand, Bob, Camel; this table averages glove" in res.markdown  # not the paper's charts
 
 def test_ablation_seeds_report_mean_and_spread_over_seeds(tmp_path):
-    from neuraluv.bench.ablation import bench
+    from neuraluv_paper.bench.ablation import bench
 
     res = bench(variants=["full", "k=0"], quick=True, seeds=[0, 1], output=tmp_path, show_progress=False)
     assert sorted({(r["variant"], r["seed"]) for r in res.rows}) == [("full", 0), ("full", 1), ("k=0", 0), ("k=0", 1)]
@@ -171,7 +171,7 @@ def test_ablation_seeds_report_mean_and_spread_over_seeds(tmp_path):
 
 
 def test_charts_quick_strata_and_denominators(tmp_path):
-    from neuraluv.bench.charts import FIRST_LABEL, SMALL_STRATA, bench, select_charts, stratum, subdivided_charts
+    from neuraluv_paper.bench.charts import FIRST_LABEL, SMALL_STRATA, bench, select_charts, stratum, subdivided_charts
 
     res = bench(quick=True, output=tmp_path, show_progress=False, baselines=("bff",), k0=True)
     neural = [r for r in res.rows if r["method"] == "neural"]
@@ -204,7 +204,7 @@ def test_charts_quick_strata_and_denominators(tmp_path):
 
 
 def test_pareto_quick(tmp_path):
-    from neuraluv.bench.pareto import bench
+    from neuraluv_paper.bench.pareto import bench
 
     res = bench(["glove"], [5, 15], quick=True, output=tmp_path, show_progress=False)
     s = res.extra["summary"]
@@ -213,7 +213,7 @@ def test_pareto_quick(tmp_path):
 
 
 def test_generated_quick_counts_coverage_routes_and_marks_blender_not_run(tmp_path, monkeypatch):
-    from neuraluv.bench.generated import bench
+    from neuraluv_paper.bench.generated import bench
 
     monkeypatch.setenv("NEURALUV_BPY_PYTHON", str(tmp_path / "no-python"))  # as in CI: no bpy
     res = bench(1, quick=True, output=tmp_path, show_progress=False, device="cpu")
@@ -231,7 +231,7 @@ def test_generated_sweep_takes_the_first_n_assets_even_when_the_folder_holds_mor
     import types
 
     import neuraluv.atlas.sweep as sweep_mod
-    from neuraluv.bench.generated import _sweep
+    from neuraluv_paper.bench.generated import _sweep
 
     src = tmp_path / "cache" / "assets"
     src.mkdir(parents=True)
@@ -270,7 +270,7 @@ def test_unknown_benchmark_method_is_a_user_error(tmp_path, capsys):
 
 
 def test_speed_quick_writes_the_table_with_floor_split_and_slim(tmp_path):
-    from neuraluv.bench.speed import bench
+    from neuraluv_paper.bench.speed import bench
 
     res = bench(["glove"], ["fast"], quick=True, output=tmp_path, show_progress=False)
     (row,) = res.rows
@@ -284,7 +284,7 @@ def test_speed_quick_writes_the_table_with_floor_split_and_slim(tmp_path):
 
 
 def test_grown_disk_is_a_disk_of_about_the_asked_size():
-    from neuraluv.bench.speed import grown_disk
+    from neuraluv_paper.bench.speed import grown_disk
     from neuraluv.datasets import sphere
     from neuraluv.topology import is_disk_like, submesh
 

@@ -59,72 +59,12 @@ def test_notebook_switch():
     assert budget("q", "p", scale=False) == "q" and budget("q", "p", scale=True) == "p"
 
 
-# ------------------------------------------------------------------ the claims checklist
-
 from neuraluv import notebook as nbhelp  # noqa: E402
-
-RESULTS = ROOT / "results"
-PAPER_TEX = sorted((ROOT.parent / "shared" / "paper").glob("*.txt"))
-needs_results = pytest.mark.skipif(not RESULTS.is_dir(), reason="no committed results/ folder")
+from neuraluv_paper import claims  # noqa: E402
 
 
 def _chapter(path):
     return path.stem.split("_")[0]
-
-
-@needs_results
-def test_every_findings_block_parses():
-    """Each committed report with a findings block yields claims and belongs to a paper table."""
-    for path in sorted(RESULTS.glob("*/table*.md")):
-        text = path.read_text(encoding="utf-8")
-        if not any(h in text for h in nbhelp._FINDINGS_HEADINGS):
-            continue
-        source = path.relative_to(RESULTS).as_posix()
-        claims = nbhelp.parse_findings(text, source)
-        assert claims, f"{source}: a findings block but no parsed claim"
-        assert all(c.verdict in {"holds", "does not hold here", "not tested"} for c in claims), source
-        assert any(t["results"] == source for t in nbhelp.PAPER_TABLES), f"{source} is not in PAPER_TABLES"
-
-
-@needs_results
-def test_paper_tables_point_at_real_reports_and_runners():
-    from neuraluv.cli.bench import BENCHMARKS
-
-    for t in nbhelp.PAPER_TABLES:
-        if t["results"]:
-            assert (RESULTS / t["results"]).is_file(), t
-        if t["runner"]:
-            assert t["runner"] in BENCHMARKS, t
-    assert [t["number"] for t in nbhelp.PAPER_TABLES] == list(range(1, len(nbhelp.PAPER_TABLES) + 1))
-
-
-@pytest.mark.skipif(not PAPER_TEX, reason="the paper's LaTeX is not next to the repository")
-def test_paper_table_numbers_follow_the_latex():
-    text = PAPER_TEX[0].read_text(encoding="utf-8")
-    labels = re.findall(r"\\begin\{table\*?\}.*?\\label\{(tab:[^}]+)\}", text, re.S)
-    assert labels == [t["label"] for t in nbhelp.PAPER_TABLES]
-
-
-@needs_results
-def test_chapter_selectors_match_committed_claims():
-    claims = nbhelp.findings()
-    for chapter, selectors in nbhelp.CHAPTER_CLAIMS.items():
-        for sel in selectors:
-            if isinstance(sel, int):
-                assert any(t["number"] == sel for t in nbhelp.PAPER_TABLES)
-                continue
-            source, text = sel
-            assert any(c.source == source and text in c.claim for c in claims), f"{chapter}: {sel} matches no claim"
-        assert nbhelp.checklist(chapter).startswith("| Paper |")
-    every = nbhelp.checklist("08")
-    assert all(c.claim.replace("|", "\\|") in every for c in claims)
-    assert every.count("**not run**") == sum(t["results"] is None for t in nbhelp.PAPER_TABLES)
-
-
-@needs_results
-def test_book_claims_page_is_current():
-    page = ROOT / "book" / "claims.md"
-    assert page.read_text(encoding="utf-8") == nbhelp.claims_page(), "regenerate it: python book/build.py (or write claims_page())"
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=_ids(NOTEBOOKS))
@@ -133,7 +73,7 @@ def test_chapter_ends_with_its_checklist_and_has_hints(path):
     chapter = _chapter(path)
     last = [c for c in nb.cells if c.cell_type == "code"][-1]
     assert f'checklist("{chapter}")' in last.source, f"{path.name}: the last code cell shows checklist({chapter!r})"
-    assert chapter in nbhelp.CHAPTER_CLAIMS or chapter == "08"
+    assert chapter in claims.CHAPTER_CLAIMS or chapter == "08"
     md = "\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
     assert "Predict, then run" in md, f"{path.name}: no 'Predict, then run' question"
     exercises = md[md.index("## Exercises"):]

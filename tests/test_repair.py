@@ -4,7 +4,7 @@ import numpy as np
 from neuraluv import datasets
 from neuraluv.io import read_obj
 from neuraluv.metrics import distortion_metrics, face_dets
-from neuraluv.repair import damage
+from neuraluv_paper import damage
 from neuraluv.layout import layout_facts
 from neuraluv.layout import texel_density as reference_scale
 from neuraluv.layout.overlap import overlapping_pairs, pair_areas
@@ -282,7 +282,7 @@ def test_cli_check_uv_and_repair(tmp_path, capsys):
 
 
 def test_bench_repair_quick(tmp_path):
-    from neuraluv.bench.repair import bench
+    from neuraluv_paper.bench.repair import bench
 
     out = bench(output=tmp_path, quick=True, preset="fast", mouette=False, show_progress=False)
     gen = [r for r in out.rows if r["case"] != "as produced"]
@@ -298,7 +298,7 @@ def test_bench_repair_quick(tmp_path):
 
 
 def test_bench_repair_explains_a_rise_in_esd():
-    from neuraluv.bench.repair import _markdown
+    from neuraluv_paper.bench.repair import _markdown
 
     row = {"layout": "atlas", "case": "vertex noise", "faces": 10, "flips_before": 2, "overlaps_before": 0,
            "fixed": True, "flips_after": 0, "overlaps_after": 0, "bit_identical_island": 0.9, "bit_identical_all": 0.9,

@@ -1,91 +1,36 @@
-"""``neuraluv bench NAME``: the runners that reproduce the paper's tables.
+"""``neuraluv bench NAME``: the paper's tables, run by the harness in :mod:`neuraluv_paper.bench`.
 
-Each runner lives in its own module ``neuraluv.bench.<name>`` (``-`` becomes
-``_``) exposing ``add_arguments(parser)`` (its own options) and
-``run(args) -> int``. This module adds the shared options and dispatches; a
-runner's module is imported only when that runner is named on the command
-line, so ``neuraluv --help`` and ``neuraluv bench --help`` import none.
-
-Shared options (``args`` attributes every runner can rely on): ``output``
-(folder, default ``results/<name>``), ``quick`` (tiny budgets, seconds),
-``preset`` (solver preset or None for the runner's default), ``meshes`` (list
-of names or None), ``resume`` (skip rows already in ``rows.jsonl``), ``seed``,
-``device``, ``threads`` (torch CPU threads), ``quiet`` (no progress bars).
+The library only forwards: when the harness is importable its runners are
+registered (:func:`neuraluv_paper.bench.register`); otherwise ``neuraluv
+bench`` answers with a one-line hint and exit status 2.
 """
 from __future__ import annotations
 
-import importlib
+import argparse
 
-from neuraluv.cli.options import EPILOG, add_solver_options
-from neuraluv.errors import NeuralUVError
+from neuraluv.cli.options import EPILOG, EXIT_USER
 
-__all__ = ["BENCHMARKS", "register", "module_for", "add_common_arguments"]
+__all__ = ["register", "HINT"]
 
-#: Benchmark name -> one-line description (the module is ``neuraluv.bench.<name>``).
-BENCHMARKS = {
-    "compact": "Table 2: compact pre-cut charts (Hand, Bob, Camel) against the classical solvers",
-    "failure-modes": "Table 3: components/boundaries and how SLIM, BFF and OptCuts fail",
-    "ablation": "Table 4: spectral rank k, SIREN bandwidth omega0, absolute initialisations",
-    "ntk": "Table 5: NTK-LBO subspace alignment",
-    "charts": "Table 6: xatlas-cut charts of closed meshes, stratified by face count",
-    "pareto": "Table 7: iteration budget vs median E_SD and time",
-    "speed": "solver speed: network floor, cost split, presets vs libigl SLIM (and --pareto: the fast preset's study)",
-    "atlas-quality": "atlas packing, chart count, seams and texel density beside xatlas on the same meshes",
-    "repair": "UV repair with minimal change: generated damage and broken layouts, against mouette's untangler",
-    "generated": "the paper's generated-mesh (Amara) tables on the generated set: ours vs Blender's unwraps; --sweep N",
-    "baselines": "external baselines (make baselines): our BFF vs the BFF v1.6 binary; OptCuts on 1K-40K xatlas charts",
-}
+#: What ``neuraluv bench`` says when the harness is missing.
+HINT = "neuraluv bench needs the paper's harness (neuraluv_paper): install it with pip install \"neuraluv[paper]\""
 
 
-def module_for(name):
-    """Import ``neuraluv.bench.<name>``; a one-line user error when it is missing."""
-    mod = f"neuraluv.bench.{name.replace('-', '_')}"
-    try:
-        return importlib.import_module(mod)
-    except ModuleNotFoundError as exc:
-        if exc.name != mod:
-            raise
-        raise NeuralUVError(f"benchmark {name!r} is not available in this installation ({mod} missing)") from None
+def _missing(args):
+    import sys
 
-
-def add_common_arguments(p, name):
-    """The options shared by every runner (see the module docstring)."""
-    p.add_argument("-o", "--output", default=f"results/{name}", help=f"output folder (default: results/{name})")
-    p.add_argument("--quick", action="store_true", help="tiny budgets and small inputs: finishes in seconds (CI, notebooks)")
-    p.add_argument("--meshes", nargs="+", default=None, metavar="NAME",
-                   help="meshes to run (compact charts, registry or procedural names)")
-    p.add_argument("--resume", action="store_true", help="keep rows already finished in OUTPUT/rows.jsonl and skip them")
-    add_solver_options(p, default_preset="the runner's own", preset_default_none=True)
-
-
-def _dispatch(args):
-    from neuraluv.solver.device import resolve_device
-
-    resolve_device(args.device)
-    threads = args.threads or (1 if args.quick else None)
-    if threads:
-        import torch
-
-        torch.set_num_threads(int(threads))
-    return module_for(args.bench).run(args)
+    print(f"neuraluv: error: {HINT}", file=sys.stderr)
+    return EXIT_USER
 
 
 def register(subparsers, argv=None):
-    """Add ``bench NAME [options]``; the runner named in ``argv`` (if any) adds its own options."""
-    b = subparsers.add_parser("bench", help="run a benchmark that reproduces one of the paper's tables",
-                              description="Reproduce the paper's tables; each writes CSV, Markdown and figures to --output.",
-                              epilog=EPILOG)
-    sub = b.add_subparsers(dest="bench", required=True, metavar="NAME")
-    argv = list(argv or [])
-    chosen = None
-    if "bench" in argv:
-        rest = [a for a in argv[argv.index("bench") + 1:] if not a.startswith("-")]
-        chosen = rest[0] if rest else None
-    for name, help_ in BENCHMARKS.items():
-        p = sub.add_parser(name, help=help_, description=help_, epilog=EPILOG)
-        add_common_arguments(p, name)
-        if name == chosen:
-            mod = module_for(name)
-            if hasattr(mod, "add_arguments"):
-                mod.add_arguments(p)
-        p.set_defaults(func=_dispatch)
+    """Add ``bench``: the harness's runners, or the hint when it is not installed."""
+    try:
+        from neuraluv_paper.bench import register as register_runners
+    except ImportError:
+        p = subparsers.add_parser("bench", help="run a benchmark that reproduces one of the paper's tables "
+                                               "(needs neuraluv[paper])", description=HINT, epilog=EPILOG)
+        p.add_argument("args", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+        p.set_defaults(func=_missing)
+        return
+    register_runners(subparsers, argv)

@@ -120,7 +120,7 @@ def record_solve(V, F, config="fast", *, seed=0, growth=1.3, label="chart", call
         See :class:`SolveRecorder`.
     callback : callable, optional
         Another ``callback(event, step, model)`` called at every step as well (e.g. an
-        NTK :class:`~neuraluv.solver.ntk.TrajectoryRecorder`).
+        NTK :class:`~neuraluv_paper.ntk.TrajectoryRecorder`).
     **solve_kw
         Passed to :func:`~neuraluv.solver.chart.solve_chart` (``device``, ``deadline``, ...).
 

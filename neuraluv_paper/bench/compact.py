@@ -1,6 +1,6 @@
 """Table 2: the compact pre-cut chart benchmark (Hand, Bob, Camel).
 
-Every method runs through :func:`neuraluv.baselines.run_baseline` and is
+Every method runs through :func:`neuraluv_paper.baselines.run_baseline` and is
 measured by the one metric definition, so the rows compare like with like.
 Multi-component inputs (Bob) get a whole-mesh row per method (libigl methods
 then fail to initialise, as in the paper) and a per-component row (each
@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, METHODS, QUICK_MESHES, QUICK_METHODS, RECUT,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, METHODS, QUICK_MESHES, QUICK_METHODS, RECUT,
                                    load_meshes, neural_options, result_row)
-from neuraluv.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, RowLog, bold, findings_markdown, fmt_num, fmt_pct,
+from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, RowLog, bold, findings_markdown, fmt_num, fmt_pct,
                      fmt_time, grey, machine_info, markdown_table, progress, with_paper, write_csv,
                      write_markdown, command_line, save_figure)
 
@@ -77,7 +77,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     -------
     BenchOutput
     """
-    from neuraluv.baselines import run_baseline
+    from neuraluv_paper.baselines import run_baseline
     from neuraluv.topology import topology_scan
 
     out = Path(output)
@@ -162,7 +162,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     command = command_line("compact", args)
     files.insert(0, write_csv(out / "table2_compact.csv", csv_rows))
     md = write_markdown(out / "table2_compact.md", "Table 2 — compact pre-cut charts", "\n".join(body),
-                        command=command, machine=machine, notes=notes)
+                        command=command, machine=machine, notes=notes, findings=findings)
     files.insert(1, md)
     return BenchOutput("compact", rows, md.read_text(), files, findings, log.skipped)
 
@@ -412,7 +412,7 @@ def _figures(out, loaded, methods):
 
 def add_arguments(p):
     p.add_argument("--methods", nargs="+", default=None, metavar="M",
-                   help=f"methods (default: {' '.join(METHODS)}; any key of neuraluv.baselines.METHODS)")
+                   help=f"methods (default: {' '.join(METHODS)}; any key of neuraluv_paper.baselines.METHODS)")
     p.add_argument("--no-figures", action="store_true", help="skip the map and heatmap plates")
 
 
@@ -420,9 +420,9 @@ def run(args):
     from neuraluv.errors import NeuralUVError
 
     try:
-        from neuraluv.baselines import METHODS as ALL
+        from neuraluv_paper.baselines import METHODS as ALL
     except ImportError as exc:  # pragma: no cover
-        raise NeuralUVError(f"neuraluv.baselines is not available: {exc}") from None
+        raise NeuralUVError(f"neuraluv_paper.baselines is not available: {exc}") from None
     bad = [m for m in (args.methods or []) if m not in ALL]
     if bad:
         raise NeuralUVError(f"unknown method(s) {', '.join(bad)}; choose from {', '.join(ALL)}")
@@ -435,7 +435,7 @@ def run(args):
 
 
 def _print(res):
-    from neuraluv.bench.provenance import plain
+    from neuraluv_paper.bench.provenance import plain
 
     text = plain(res.markdown)
     print(text)

@@ -35,8 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num,
                                        fmt_pct, fmt_time, fraction, machine_info, markdown_table, plain, progress,
                                        with_paper, write_csv, write_markdown)
 
@@ -114,8 +114,8 @@ def chart_mesh_of(res):
 def blender_row(V, F, method):
     """Blender's unwrap of one raw mesh, counted on its loop UVs (a flat dict; ``status`` ``unavailable``
     without ``bpy``)."""
-    from neuraluv.baselines import Unavailable
-    from neuraluv.baselines.external import blender_map
+    from neuraluv_paper.baselines import Unavailable
+    from neuraluv_paper.baselines.external import blender_map
     from neuraluv.meshfix import face_areas
     from neuraluv.metrics import corner_jacobians, face_metrics
 
@@ -151,7 +151,7 @@ def _assets(n, meshes, quick):
         V, F, info = generated_asset(i, res=16 if quick else None)
         out.append((info["name"], V, F))
     if meshes:
-        from neuraluv.bench.common import load_meshes
+        from neuraluv_paper.bench.common import load_meshes
 
         loaded, _ = load_meshes(list(meshes), quick)
         out += loaded
@@ -298,7 +298,8 @@ def bench(n_assets=25, meshes=None, *, preset=None, quick=False, output="results
     cmd = command_line("generated", args)
     files = [write_csv(out / "amara_runs.csv", rows),
              write_markdown(out / "amara_coverage_validity.md", "Generated meshes — coverage and validity "
-                            "(tab:amara_coverage_validity)", "\n".join(body), command=cmd, machine=machine, notes=notes)]
+                            "(tab:amara_coverage_validity)", "\n".join(body), command=cmd, machine=machine, notes=notes,
+                            findings=findings)]
     bbody = [f"Blender's unwraps of the same {n} assets (bpy 4.5, each operator's defaults), counted on loop UVs: "
              "Angle Based and Conformal on **our charts** (the repaired mesh cut along our atlas's seams, each chart "
              "its own island: the same charts, Blender's solver; chart-level, as in the paper's table), Smart UV "

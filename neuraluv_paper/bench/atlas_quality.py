@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench.provenance import (BenchOutput, command_line, fmt_num, fmt_pct, machine_info, markdown_table,
+from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, fmt_pct, machine_info, markdown_table,
                                        plain, write_csv, write_markdown)
 
 __all__ = ["add_arguments", "bench", "run", "seam_length", "xatlas_atlas"]

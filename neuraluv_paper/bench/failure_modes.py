@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.common import DEFAULT_MESHES, LABELS, MESH_LABELS, QUICK_MESHES, load_meshes, neural_options, result_row
-from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, machine_info,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import DEFAULT_MESHES, LABELS, MESH_LABELS, QUICK_MESHES, load_meshes, neural_options, result_row
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, machine_info,
                      markdown_table, plain, progress, with_paper, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "METHODS", "PAPER_METHODS", "cell"]
@@ -76,7 +76,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     -------
     BenchOutput
     """
-    from neuraluv.baselines import run_baseline
+    from neuraluv_paper.baselines import run_baseline
     from neuraluv.topology import topology_scan
 
     out = Path(output)
@@ -138,7 +138,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
     files = [write_csv(out / "table3_failure_modes.csv", csv_rows)]
     md = write_markdown(out / "table3_failure_modes.md", "Table 3 — compact baseline failure modes", "\n".join(body),
-                        command=command_line("failure-modes", args), machine=machine, notes=notes)
+                        command=command_line("failure-modes", args), machine=machine, notes=notes, findings=findings)
     files.append(md)
     return BenchOutput("failure-modes", rows, md.read_text(), files, findings, log.skipped)
 

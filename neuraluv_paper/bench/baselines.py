@@ -2,7 +2,7 @@
 
 Two reports, both built from the binaries of ``make baselines``:
 
-* ``bff_agreement.{md,csv}`` (always): our Python BFF (:mod:`neuraluv.baselines.bff`)
+* ``bff_agreement.{md,csv}`` (always): our Python BFF (:mod:`neuraluv_paper.baselines.bff`)
   against the BFF v1.6 command-line tool on the compact charts (Camel, Hand,
   Bob): E_SD, conformal and area distortion, flips, min det J and time, the
   paper's BFF value beside them, and how far the two maps are apart after a
@@ -12,7 +12,7 @@ Two reports, both built from the binaries of ``make baselines``:
   from what rounding the file does to near-degenerate triangles.
 * ``optcuts_sample.{md,csv}`` (``--optcuts-sample N``): OptCuts on N xatlas-cut,
   disk-like charts of 1,000–40,000 faces taken evenly over that size range from
-  the cached closed registry meshes (:func:`neuraluv.bench.charts.chart_pool`),
+  the cached closed registry meshes (:func:`neuraluv_paper.bench.charts.chart_pool`),
   for the paper's "OptCuts is valid on 9/10 of a 1K–40K Thingi-style sample".
 
 Python API: :func:`bff_agreement`, :func:`optcuts_sample`; command line:
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.common import MESH_LABELS, load_meshes
-from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, fmt_num, fmt_pct, fmt_time,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import MESH_LABELS, load_meshes
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, fmt_num, fmt_pct, fmt_time,
                                        fraction, machine_info, markdown_table, plain, progress, with_paper, write_csv,
                                        write_markdown)
 from neuraluv.layout.rigid import rigid_fit
@@ -99,7 +99,7 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
     -------
     BenchOutput
     """
-    from neuraluv.baselines import bff_binary, run_baseline
+    from neuraluv_paper.baselines import bff_binary, run_baseline
 
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -144,7 +144,7 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
               "map distance RMS / max", "Time (s)"]
     body = [f"BFF binary: `{binary or 'not built'}` (Boundary First Flattening v1.6, commit 6924b2f, built by "
             "`make baselines`), no cones, free boundary (BFF's minimal-area-distortion boundary, `flatten(u = 0)`), "
-            "the setting of the paper's BFF baseline on a disk chart. Ours: `neuraluv.baselines.bff.bff_map`, "
+            "the setting of the paper's BFF baseline on a disk chart. Ours: `neuraluv_paper.baselines.bff.bff_map`, "
             "the same algorithm in scipy. Both maps are rescaled to the 3D area before the metrics (BFF has no "
             "intrinsic scale) and measured by `neuraluv.metrics.distortion_metrics`.", "",
             markdown_table(header, table, "llrrrrrrrr"), "",
@@ -202,8 +202,8 @@ def optcuts_sample(n_charts=10, *, sources=None, output="results/baselines", res
     -------
     BenchOutput
     """
-    from neuraluv.baselines import optcuts_binary, run_baseline
-    from neuraluv.bench.charts import chart_pool, default_sources, select_charts
+    from neuraluv_paper.baselines import optcuts_binary, run_baseline
+    from neuraluv_paper.bench.charts import chart_pool, default_sources, select_charts
 
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -242,7 +242,7 @@ def optcuts_sample(n_charts=10, *, sources=None, output="results/baselines", res
             f"E_SD bound 4.1, bijectivity on), at most {timeout} s per chart.",
             f"Charts: xatlas cut of {len(sources)} sources ({', '.join(sources)}): {len(pool)} charts, "
             f"{len(in_range)} of {lo:,}–{hi:,} faces ({sum(c['disk'] for c in in_range)} disk-like); "
-            f"{len(chosen)} taken evenly over that size range (`neuraluv.bench.charts.select_charts`).", "",
+            f"{len(chosen)} taken evenly over that size range (`neuraluv_paper.bench.charts.select_charts`).", "",
             f"**OptCuts valid on {fraction(n_valid, len(rows))}** (paper: 9/10 on a 1K–40K Thingi-style sample).", "",
             markdown_table(["Chart", "Faces", "Status", "Valid", "E_SD", "%Flip", "min det J", "Time (s)", "Reason"],
                            table, "lrlcrrrrl")]
@@ -283,7 +283,7 @@ def run(args):
         outs.append(bff_agreement(args.meshes, output=args.output, repeats=1 if args.quick else args.repeats,
                                   show_progress=not args.quiet, args=args))
     if args.optcuts_sample:
-        from neuraluv.baselines import optcuts_binary
+        from neuraluv_paper.baselines import optcuts_binary
 
         if optcuts_binary() is None:
             raise NeuralUVError("OptCuts binary not found: run `make baselines` (or set NEURALUV_OPTCUTS)")

@@ -8,7 +8,7 @@ Layouts:
 * **LSCM / ARAP camel** — libigl's maps of the Camel chart (they fold), scaled into
   the unit square: real broken layouts; **Blender Smart UV** when ``bpy`` is installed.
 
-Generated damage (:mod:`neuraluv.repair.damage`, seeded): a local fold of a few
+Generated damage (:mod:`neuraluv_paper.damage`, seeded): a local fold of a few
 rings, scattered vertex noise, a mirrored island, two overlapping islands, an
 island pushed out of the unit square, NaN UVs. Every repaired layout is written
 to OBJ and read back; the verdict is taken on that file.
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table, save_figure,
+from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table, save_figure,
                                        write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "mouette_untangle"]
@@ -47,7 +47,7 @@ def _into_unit_square(UV, margin=0.05):
 def _layouts(quick, seed, preset):
     """``[(name, V, F, UV, FUV, kind)]``; kind "good" (damage it) or "broken" (repair as is)."""
     from neuraluv import datasets
-    from neuraluv.baselines.libigl import arap, lscm
+    from neuraluv_paper.baselines.libigl import arap, lscm
     from neuraluv.solver.chart import solve_chart
 
     out, notes = [], []
@@ -68,7 +68,7 @@ def _layouts(quick, seed, preset):
         uv = fn(V, F)
         out.append((f"{meth} {name}", V, F, _into_unit_square(uv), F.copy(), "broken"))
     try:
-        from neuraluv.baselines.external import blender_map
+        from neuraluv_paper.baselines.external import blender_map
 
         uv, Vb, Fb, _ = blender_map(V, F, "SMART")
         out.append((f"Blender Smart UV {name}", Vb, Fb, uv, Fb.copy(), "broken"))
@@ -79,7 +79,7 @@ def _layouts(quick, seed, preset):
 
 def _cases(name, V, F, UV, FUV, seed, quick):
     """Generated damage on one good layout: ``[(case, UV, FUV, island faces, info)]``."""
-    from neuraluv.repair import damage
+    from neuraluv_paper import damage
     from neuraluv.layout.facts import layout_facts
 
     f = layout_facts(V, F, UV, FUV)
@@ -135,7 +135,7 @@ def mouette_untangle(V, F, UV, *, scale):
 
     from neuraluv.jacobian import local_frames
     from neuraluv.meshfix import normalize_unit_box
-    from neuraluv.repair.damage import boundary_rows
+    from neuraluv_paper.damage import boundary_rows
 
     Vn = normalize_unit_box(V)[0]
     K, A = local_frames(Vn, F)

@@ -3,7 +3,8 @@
 One place for how a benchmark reports: numbers formatted as the paper prints
 them, the paper's value beside ours, explicit denominators (``"3/3 valid"``),
 greyed distortion of maps that still flip, the machine the run used, a JSONL
-log of finished rows for ``--resume``, CSV + Markdown output and progress bars.
+log of finished rows for ``--resume``, CSV + Markdown output, the paper-claim verdicts as data (``*.findings.json``)
+and progress bars.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from neuraluv.io import atomic_write, jsonable, write_csv
 __all__ = [
     "fmt_num", "fmt_pct", "fmt_time", "grey", "bold", "with_paper", "fraction", "GREY_NOTE", "PAPER_NOTE",
     "machine_info", "machine_line", "git_commit", "command_line", "markdown_table", "write_csv",
-    "findings_markdown", "write_markdown", "RowLog", "progress", "BenchOutput", "is_num", "finite", "save_figure", "plain",
+    "findings_markdown", "write_findings", "VERDICTS", "write_markdown", "RowLog", "progress", "BenchOutput", "is_num", "finite", "save_figure", "plain",
 ]
 
 #: Footnote explaining the grey marker.
@@ -285,15 +286,53 @@ def markdown_table(header, rows, align=None):
     return "\n".join(lines)
 
 
-def write_markdown(path, title, body, *, command, machine, notes=()):
-    """Write a Markdown report: title, how it was produced, the body, notes, the machine."""
+def write_markdown(path, title, body, *, command, machine, notes=(), findings=None):
+    """Write a Markdown report: title, how it was produced, the body, notes, the machine.
+
+    With ``findings`` (the list whose :func:`findings_markdown` block the body shows), they are
+    also written as data beside the report (:func:`write_findings`).
+    """
     text = [f"# {title}", "", f"Produced by `{command}` on {machine['date']}.", "", body.rstrip(), ""]
     for n in notes:
         text += [n, ""]
     text += [machine_line(machine), ""]
     with atomic_write(path) as fh:
         fh.write("\n".join(text))
+    if findings:
+        write_findings(path, findings)
     return Path(path)
+
+
+#: A finding's ``holds`` (True / False / None) as the verdict written in reports and findings files.
+VERDICTS = {True: "holds", False: "does not hold here", None: "not tested"}
+
+
+def write_findings(report, findings):
+    """Write the paper-claim verdicts of a report as data: ``<report>.findings.json`` beside it.
+
+    Parameters
+    ----------
+    report : path of the Markdown report (``results/<runner>/<table>.md``)
+    findings : list of ``(claim, holds, detail)``, ``holds`` True / False / None (not tested)
+
+    Returns
+    -------
+    Path of the JSON file (read by :func:`neuraluv_paper.claims.findings`).
+
+    Examples
+    --------
+    >>> import tempfile, json; d = Path(tempfile.mkdtemp())
+    >>> p = write_findings(d / "table9.md", [("A beats B", True, "3 vs 4")])
+    >>> p.name, json.loads(p.read_text())["findings"][0]["verdict"]
+    ('table9.findings.json', 'holds')
+    """
+    report = Path(report)
+    data = {"report": report.name,
+            "findings": [{"claim": c, "verdict": VERDICTS[h], "detail": d} for c, h, d in findings]}
+    path = report.with_suffix(".findings.json")
+    with atomic_write(path) as fh:
+        fh.write(json.dumps(data, indent=1, ensure_ascii=False) + "\n")
+    return path
 
 
 class RowLog:
@@ -409,11 +448,8 @@ def findings_markdown(findings):
         return ""
     out = ["## The paper's findings on our data", ""]
     for claim, holds, detail in findings:
-        tag = {True: "**holds**", False: "**does not hold here**", None: "**not tested**"}[holds]
-        out.append(f"- {claim} — {tag}: {detail}")
+        out.append(f"- {claim} — **{VERDICTS[holds]}**: {detail}")
     return "\n".join(out)
-
-
 
 
 def plain(text):
@@ -428,8 +464,6 @@ def plain(text):
 
     return re.sub(r'<span style="color:gray">(.*?)</span>', r"\1", text)
 
-
-__all__.append("plain")
 
 
 def save_figure(fig, path, dpi=64):

@@ -9,7 +9,7 @@ Project) or an Unwrap method (``ANGLE_BASED``, ``CONFORMAL``,
 ``MINIMUM_STRETCH``); ``PARAMS_JSON`` optional operator keyword arguments.
 Writes ``uv (3m,2)`` — the loop (face-corner) UVs, loop ``3t+j`` being corner
 ``j`` of face ``t`` — ``loop_vertex (3m,)`` and ``seconds`` (operator time) to
-``OUT.npz``. Called by :func:`neuraluv.baselines.blender_map`; it imports only
+``OUT.npz``. Called by :func:`neuraluv_paper.baselines.blender_map`; it imports only
 numpy and bpy, so it is never imported by the package itself.
 """
 import json

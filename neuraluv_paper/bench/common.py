@@ -62,7 +62,7 @@ def neural_options(preset, quick, seed=0, device="auto", **overrides):
 
 
 def result_row(res):
-    """The numbers of a :class:`~neuraluv.baselines.BaselineResult` as a flat dict."""
+    """The numbers of a :class:`~neuraluv_paper.baselines.BaselineResult` as a flat dict."""
     m = res.metrics
     row = {k: m.get(k) for k in ("esd", "conformal", "area", "flips", "flip_percent", "min_det", "n_faces", "valid")}
     row.update({"status": res.status, "reason": res.reason, "time": float(res.time),

@@ -35,8 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table, save_figure,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table, save_figure,
                                        write_csv, write_markdown)
 
 __all__ = ["bench", "pareto", "atlas_timing", "add_arguments", "run", "speed_charts", "grown_disk", "network_floor",
@@ -265,7 +265,7 @@ def _time_preset(preps, cfg, device, max_seconds):
 
 def bench(charts=None, presets=None, *, quick=False, output="results/speed", device="auto", max_seconds=None,
           show_progress=True, argv=None):
-    """Run the speed benchmark; returns a :class:`~neuraluv.bench.provenance.BenchOutput`."""
+    """Run the speed benchmark; returns a :class:`~neuraluv_paper.bench.provenance.BenchOutput`."""
     import torch
 
     from neuraluv.solver.chart import prepare_chart

@@ -17,7 +17,7 @@ ablation, which ends invalid). ``--probe-timing`` only times one probe per chart
 
 ``--trajectory`` also runs the paper's **trajectory probe** (Fig. 7) on
 ``--probe-charts`` xatlas charts (default 25, 300–3,000 faces, taken evenly
-over that range by :func:`neuraluv.bench.charts.select_charts`): on each, the
+over that range by :func:`neuraluv_paper.bench.charts.select_charts`): on each, the
 recipe's solve (Tutte residual, k = 16, no retry) and the random absolute
 initialisation, S(r) probed at the end of warm-up and at 5, 10, 25, 50 and 75%
 of the budget. The Pearson correlations of every early S(4)/S(8)/S(16) value
@@ -44,15 +44,15 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv import datasets
-from neuraluv.bench.paper_values import TABLE5
-from neuraluv.bench.provenance import command_line, machine_info, machine_line
+from neuraluv_paper.bench.paper_values import TABLE5
+from neuraluv_paper.bench.provenance import command_line, machine_info, machine_line, write_findings
 from neuraluv.io import write_csv
 
 __all__ = ["PAPER_TABLE5", "CHARTS", "SETTINGS", "add_arguments", "run", "effect_checks", "trajectory_probe", "pearson",
            "probe_figure", "PAPER_PROBE_R"]
 
 #: Table 5 of the paper (compact rows average Hand, Bob, Camel):
-#: ``(set, state, k, omega0) -> (S4, S8, S16)`` — the one copy in :mod:`neuraluv.bench.paper_values`.
+#: ``(set, state, k, omega0) -> (S4, S8, S16)`` — the one copy in :mod:`neuraluv_paper.bench.paper_values`.
 PAPER_TABLE5 = TABLE5
 
 #: The compact charts of the paper.
@@ -204,7 +204,7 @@ def run(args):
 
     from neuraluv.errors import NeuralUVError
     from neuraluv.plot import plot_alignment_curves
-    from neuraluv.solver.ntk import TrajectoryRecorder, make_probe
+    from neuraluv_paper.ntk import TrajectoryRecorder, make_probe
     from neuraluv.solver import get_config, resolve_device, solve_chart
 
     if args.threads:
@@ -324,6 +324,7 @@ def run(args):
     write_csv(out / "table5.csv", t5)
     timing = {"total": total, "preset": preset, "iterations": iterations}
     (out / "table5.md").write_text(_markdown(table, table_nc, checks, info, args, timing, per_chart, probe))
+    write_findings(out / "table5.md", [(claim, holds, f"{ev}.") for claim, holds, ev in checks])
     (out / "run.json").write_text(json.dumps({"machine": info, "args": {k: v for k, v in vars(args).items() if k != "func"},
                                               "timing": timing, "checks": [list(c) for c in checks]}, indent=2, default=str))
 
@@ -394,7 +395,7 @@ def trajectory_probe(n_charts=25, faces=(300, 3000), preset="paper", iterations=
         Face-count range of the charts.
     preset, iterations : solver preset and budget (no retries: the outcome is the attempt's).
     sources : list of str, optional
-        Meshes to cut (default :func:`neuraluv.bench.charts.default_sources`).
+        Meshes to cut (default :func:`neuraluv_paper.bench.charts.default_sources`).
 
     Returns
     -------
@@ -403,10 +404,10 @@ def trajectory_probe(n_charts=25, faces=(300, 3000), preset="paper", iterations=
         ``correlations`` (Pearson r of each early feature with each outcome, over all runs and over the
         recipe's runs), ``checks`` (claims) and ``charts`` / ``runs`` counts.
     """
-    from neuraluv.bench.charts import chart_pool, default_sources, select_charts
-    from neuraluv.bench.provenance import progress
+    from neuraluv_paper.bench.charts import chart_pool, default_sources, select_charts
+    from neuraluv_paper.bench.provenance import progress
     from neuraluv.solver import get_config, solve_chart
-    from neuraluv.solver.ntk import TrajectoryRecorder, make_probe
+    from neuraluv_paper.ntk import TrajectoryRecorder, make_probe
 
     pool, _ = chart_pool(sources or default_sources(), cache_dir)
     chosen = select_charts(pool, n_charts, [(faces[0], faces[1] + 1, "probe")])
@@ -612,7 +613,7 @@ def _probe_timing(charts, cfg, args, device):
     """Time one full probe per chart: make_probe, the network, ntk_gram, alignment_curve."""
 
     from neuraluv.solver.chart import build_network, prepare_chart
-    from neuraluv.solver.ntk import alignment_curve, make_probe
+    from neuraluv_paper.ntk import alignment_curve, make_probe
 
     for name, (V, F) in charts.items():
         t0 = time.perf_counter()

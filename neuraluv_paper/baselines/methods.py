@@ -16,7 +16,7 @@ name                   what runs                                   metrics scale
 ``slim-20``            libigl SLIM, symmetric Dirichlet, 20 iters  as solved
                        from the uniform Tutte map (ours' start)
 ``slim-1k``            same, 1,000 iterations                      as solved
-``bff``                Boundary First Flattening (:mod:`neuraluv.baselines.bff`)     rescaled
+``bff``                Boundary First Flattening (:mod:`neuraluv_paper.baselines.bff`)     rescaled
 ``bff-cli``            the BFF v1.6 command-line tool (optional    rescaled
                        binary, ``make baselines``): no cones,
                        free boundary, ``--normalizeUVs``
@@ -66,10 +66,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from neuraluv.baselines.bff import bff_map
-from neuraluv.baselines.common import InitFail, Unavailable, orient_charts
-from neuraluv.baselines.external import BLENDER_MODES, bff_cli_map, blender_map, optcuts_map, xatlas_map
-from neuraluv.baselines.libigl import arap, harmonic, lscm, slim
+from neuraluv_paper.baselines.bff import bff_map
+from neuraluv_paper.baselines.common import InitFail, Unavailable, orient_charts
+from neuraluv_paper.baselines.external import BLENDER_MODES, bff_cli_map, blender_map, optcuts_map, xatlas_map
+from neuraluv_paper.baselines.libigl import arap, harmonic, lscm, slim
 from neuraluv.metrics import distortion_metrics, match_area
 from neuraluv.solver.result import ChartResult
 from neuraluv.topology import components, topology_scan
@@ -332,12 +332,12 @@ def run_baseline(method, V, F, *, per_component=False, **kw):
 
 
 def main(argv=None):
-    """``python -m neuraluv.baselines MESH [MESH ...] [--methods a,b] [--per-component]``: print a table."""
+    """``python -m neuraluv_paper.baselines MESH [MESH ...] [--methods a,b] [--per-component]``: print a table."""
     import argparse
 
     from neuraluv import datasets
 
-    p = argparse.ArgumentParser(prog="python -m neuraluv.baselines", description=main.__doc__)
+    p = argparse.ArgumentParser(prog="python -m neuraluv_paper.baselines", description=main.__doc__)
     p.add_argument("meshes", nargs="+", help="compact chart (camel, hand, bob), registry or procedural mesh name")
     p.add_argument("--methods", default=",".join(m for m in METHODS if m != "neural"))
     p.add_argument("--per-component", action="store_true", help="also run every method per component")

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.common import DEFAULT_MESHES, MESH_LABELS, QUICK_MESHES, load_meshes, neural_options
-from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, fmt_time,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, QUICK_MESHES, load_meshes, neural_options
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, fmt_time,
                      fraction, machine_info, markdown_table, plain, progress, with_paper, save_figure, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "closest_charts", "BUDGETS", "XATLAS_TARGETS"]
@@ -37,7 +37,7 @@ def closest_charts(pool, targets=XATLAS_TARGETS, within=1.5):
 
     A target with no native chart within a factor ``within`` of it takes the closest
     midpoint-subdivided copy of a native chart instead
-    (:func:`~neuraluv.bench.charts.subdivided_charts`, as Table 6's upper strata: xatlas
+    (:func:`~neuraluv_paper.bench.charts.subdivided_charts`, as Table 6's upper strata: xatlas
     cuts no chart above about 10K faces from our meshes); its ``chart`` ends in ``/s<level>``.
 
     Examples
@@ -46,7 +46,7 @@ def closest_charts(pool, targets=XATLAS_TARGETS, within=1.5):
     >>> [(c["chart"], c["faces"]) for c in closest_charts(pool, [1000, 6500, 40000])]
     [(0, 900), ('1/s1', 4800), ('2/s1', 40000)]
     """
-    from neuraluv.bench.charts import subdivided_charts
+    from neuraluv_paper.bench.charts import subdivided_charts
 
     disk = [c for c in pool if c["disk"]]
     finer = subdivided_charts(disk, low=0, high=float("inf"))
@@ -69,7 +69,7 @@ def closest_charts(pool, targets=XATLAS_TARGETS, within=1.5):
 
 def _xatlas_set(cache_dir, targets=XATLAS_TARGETS):
     """:func:`closest_charts` of the default sources' xatlas charts, as ``(name, V, F)``."""
-    from neuraluv.bench.charts import chart_arrays, chart_pool, default_sources
+    from neuraluv_paper.bench.charts import chart_arrays, chart_pool, default_sources
 
     pool, _ = chart_pool(default_sources(), cache_dir)
     return [(f"{c['source']}#{c['chart']}", *chart_arrays(c)) for c in closest_charts(pool, targets)]
@@ -96,7 +96,7 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
     BenchOutput
         ``extra["summary"]``: one row per (set, budget).
     """
-    from neuraluv.baselines import run_baseline
+    from neuraluv_paper.baselines import run_baseline
 
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -173,7 +173,7 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
     files = [write_csv(out / "table7_pareto_runs.csv", rows), write_csv(out / "table7_pareto.csv", summary),
              _figure(out, summary)]
     md = write_markdown(out / "table7_pareto.md", "Table 7 — runtime–quality Pareto sweep", "\n".join(body),
-                        command=command_line("pareto", args), machine=machine, notes=notes)
+                        command=command_line("pareto", args), machine=machine, notes=notes, findings=findings)
     files.append(md)
     return BenchOutput("pareto", rows, md.read_text(), files, findings, log.skipped, {"summary": summary})
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from neuraluv.baselines.common import InitFail, orient_charts
+from neuraluv_paper.baselines.common import InitFail, orient_charts
 from neuraluv.errors import TopologyError
 from neuraluv.metrics import match_area
 from neuraluv.spectral import cotangent_laplacian
@@ -291,8 +291,8 @@ def bff(V, F, *, boundary_u=0.0, target_k=None, extension="conjugate"):
 
 
 def bff_map(V, F, **kw):
-    """Boundary First Flattening, each component separately (see :mod:`neuraluv.baselines.bff`)."""
-    from neuraluv.baselines.bff import bff
+    """Boundary First Flattening, each component separately (see :mod:`neuraluv_paper.baselines.bff`)."""
+    from neuraluv_paper.baselines.bff import bff
 
     parts = components(V, F)
     UV = np.zeros((len(V), 2))

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.common import DEFAULT_MESHES, MESH_LABELS, load_meshes, neural_options
-from neuraluv.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, load_meshes, neural_options
+from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct,
                      fraction, grey, machine_info, markdown_table, plain, progress, with_paper, write_csv,
                      write_markdown)
 
@@ -97,7 +97,7 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     BenchOutput
         ``extra["summary"]``: the averaged rows.
     """
-    from neuraluv.baselines import run_baseline
+    from neuraluv_paper.baselines import run_baseline
 
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -179,7 +179,7 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     files = [write_csv(out / "table4_ablation_runs.csv", csv_rows),
              write_csv(out / "table4_ablation.csv", [{**s, **_paper_cols(s["variant"])} for s in summary])]
     md = write_markdown(out / "table4_ablation.md", "Table 4 — compact ablations", "\n".join(body),
-                        command=command_line("ablation", args), machine=machine, notes=notes)
+                        command=command_line("ablation", args), machine=machine, notes=notes, findings=findings)
     files.append(md)
     return BenchOutput("ablation", rows, md.read_text(), files, findings, log.skipped, {"summary": summary})
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.baselines.common import InitFail, Unavailable, weld_corners
+from neuraluv_paper.baselines.common import InitFail, Unavailable, weld_corners
 from neuraluv.topology import topology_scan
 
 __all__ = ["xatlas_map", "BLENDER_MODES", "blender_python", "blender_map", "optcuts_binary", "optcuts_map",
@@ -127,7 +127,7 @@ def blender_map(V, F, mode="SMART", *, timeout=600, **params):
 
     Notes
     -----
-    The script :mod:`neuraluv.baselines._blender_unwrap` runs under the interpreter
+    The script :mod:`neuraluv_paper.baselines._blender_unwrap` runs under the interpreter
     returned by :func:`blender_python` (``bpy`` is ~370 MB and kept out of the
     main environment).
     """
@@ -189,7 +189,7 @@ def bff_cli_map(V, F, *, n_cones=0, flatten_to_disk=False, normalize=True, presc
 
     The default (no cones, free boundary: BFF's ``flatten(u = 0)``, the
     minimal-area-distortion boundary) is the paper's BFF baseline for a disk
-    chart and what :func:`neuraluv.baselines.bff.bff_map` implements in
+    chart and what :func:`neuraluv_paper.baselines.bff.bff_map` implements in
     Python. Several components are flattened one by one and packed by the tool
     (a closed component gets 8 cones, as the tool decides).
 

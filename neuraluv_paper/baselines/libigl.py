@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from neuraluv.baselines.common import require_disk
+from neuraluv_paper.baselines.common import require_disk
 from neuraluv.metrics import match_area
 from neuraluv.topology import boundary_loop
 from neuraluv.tutte import circle_boundary

@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.bench import paper_values as PV
-from neuraluv.bench.common import LABELS, neural_options
-from neuraluv.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_time, fraction,
+from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import LABELS, neural_options
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_time, fraction,
                      machine_info, markdown_table, plain, progress, save_figure, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "STRATA", "SMALL_STRATA", "FIRST", "stratum", "xatlas_charts", "chart_pool",
@@ -325,7 +325,7 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
     BenchOutput
         ``extra["summary"]``: per-subset rows; ``rows``: one per chart and method.
     """
-    from neuraluv.baselines import run_baseline
+    from neuraluv_paper.baselines import run_baseline
 
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -455,7 +455,7 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
     files.append(_figure(out, rows))
     md = write_markdown(out / "table6_charts.md", "Table 6 — xatlas-cut charts, stratified by size", "\n".join(body)
                         + f"\n\n![valid vs size]({files[-1].name})", command=command_line("charts", args),
-                        machine=machine, notes=notes)
+                        machine=machine, notes=notes, findings=findings)
     files.append(md)
     return BenchOutput("charts", rows, md.read_text(), files, findings, log.skipped,
                        {"summary": summary, "pool": len(pool), "rejected": len(rejected), "chosen": chosen})

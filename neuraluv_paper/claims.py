@@ -1,0 +1,321 @@
+"""The claims checklist: what the paper claims, what our committed runs found, and where.
+
+Every runner that tests a qualitative claim of the paper writes its verdicts as
+data beside its report: ``results/<runner>/<table>.findings.json`` (written by
+:func:`neuraluv_paper.bench.provenance.write_markdown`; the same list is the
+report's "paper's findings on our data" block). This module reads those files —
+never the Markdown — into :class:`Claim` rows: the rows a notebook chapter
+touches (:func:`checklist`), every row (:func:`findings`), the book's claim →
+notebook → evidence page (:func:`claims_page`), and single reference numbers a
+notebook prints beside its own (:func:`reference`).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["PAPER_TABLES", "CHAPTER_CLAIMS", "Claim", "results_dir", "report_files", "findings", "checklist",
+           "claims_page", "reference"]
+
+#: The paper's tables in the LaTeX source's order (so ``number`` is the paper's
+#: Table N), with where this package's evidence lives: ``results`` is the
+#: committed report (``None``: nothing committed) and ``runner`` the
+#: ``neuraluv bench`` command that writes it (``None``: no runner). The report
+#: file names keep the project's older numbering (``table2_compact.md`` is the
+#: paper's Table 1).
+PAPER_TABLES = (
+    dict(number=1, label="tab:compact_prelim", title="compact pre-cut charts",
+         results="compact/table2_compact.md", runner="compact"),
+    dict(number=2, label="tab:slim_failure_modes", title="compact baseline failure modes",
+         results="failure-modes/table3_failure_modes.md", runner="failure-modes"),
+    dict(number=3, label="tab:ablation_prelim", title="compact ablations",
+         results="ablation/table4_ablation.md", runner="ablation"),
+    dict(number=4, label="tab:ntk_compact_controls", title="NTK–LBO subspace alignment",
+         results="ntk/table5.md", runner="ntk"),
+    dict(number=5, label="tab:thingi_scale", title="Thingi10K / xatlas-cut charts",
+         results="charts/table6_charts.md", runner="charts"),
+    dict(number=6, label="tab:runtime_pareto", title="runtime–quality Pareto sweep (CUDA)",
+         results="pareto/table7_pareto.md", runner="pareto"),
+    dict(number=7, label="tab:amara_coverage_validity", title="Amara coverage and validity",
+         results="generated/amara_coverage_validity.md", runner="generated"),
+    dict(number=8, label="tab:amara_blender_methods", title="Blender chart-level baselines on Amara",
+         results="generated/amara_blender_methods.md", runner="generated"),
+    dict(number=9, label="tab:amara_large_sweep", title="larger Amara atlas runs (Rust implementation)",
+         results="generated/amara_large_sweep.md", runner="generated"),
+)
+
+#: Which checklist rows each chapter touches: (report file, a substring of the
+#: claim as the committed report words it) or the paper's table number for a
+#: table without a committed report. ``"08"`` shows every row.
+CHAPTER_CLAIMS = {
+    "00": [("compact/table2_compact.md", "Camel: SLIM-1k is zero-flip and the better fixed-chart solver"),
+           ("failure-modes/table3_failure_modes.md", "Camel / SLIM-1k")],
+    "00b": [("compact/table2_compact.md", "only ours is foldover-free"),
+            ("compact/table2_compact.md", "Camel: LSCM and ARAP still fold")],
+    "01": [("ablation/table4_ablation.md", "Removing LBO features"),
+           ("ntk/table5.md", "Spectral inputs raise S(16) at init"),
+           ("ntk/table5.md", "Spectral inputs raise S(4) at init")],
+    "02": [("ablation/table4_ablation.md", "Spectral init"),
+           ("ablation/table4_ablation.md", "Random init")],
+    "03": [("compact/table2_compact.md", "only ours is foldover-free"),
+           ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold")],
+    "03b": [("compact/table2_compact.md", "only ours is foldover-free"),
+            ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold"),
+            ("compact/table2_compact.md", "Camel: SLIM-1k is zero-flip and the better fixed-chart solver"),
+            ("ablation/table4_ablation.md", "Spectral init"),
+            ("ablation/table4_ablation.md", "Random init")],
+    "03c": [("compact/table2_compact.md", "only ours is foldover-free"),
+            ("ablation/table4_ablation.md", "Removing LBO features"),
+            ("ablation/table4_ablation.md", "Spectral init"),
+            ("ablation/table4_ablation.md", "Random init")],
+    "04": [("compact/table2_compact.md", "only ours is foldover-free"),
+           ("compact/table2_compact.md", "slower than LSCM"),
+           ("charts/table6_charts.md", "stratified set is mostly valid"), ("pareto/table7_pareto.md", "")],
+    "05": [("compact/table2_compact.md", "only ours is foldover-free"),
+           ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold"),
+           ("compact/table2_compact.md", "Bob: "), ("compact/table2_compact.md", "Camel: "),
+           ("failure-modes/table3_failure_modes.md", "")],
+    "06": [("ntk/table5.md", ""), ("ablation/table4_ablation.md", "bandwidth rows")],
+    "07": [("charts/table6_charts.md", "small-chart sweep is almost all valid"), ("generated/amara_coverage_validity.md", "")],
+    "09": [("compact/table2_compact.md", "Camel: LSCM and ARAP still fold"),
+           ("compact/table2_compact.md", "OptCuts resolves Hand and Camel")],
+}
+
+@dataclass(frozen=True)
+class Claim:
+    """One row of the claims checklist.
+
+    ``source``: the report it was read from, relative to ``results/`` (None for
+    a table without one); ``table``: the paper's table number (LaTeX order) or
+    None; ``claim``: the paper's claim as the report words it; ``verdict``:
+    ``holds`` / ``does not hold here`` / ``not tested`` / ``not run``;
+    ``detail``: our numbers.
+    """
+
+    source: str | None
+    table: int | None
+    claim: str
+    verdict: str
+    detail: str
+
+
+def results_dir():
+    """The committed ``results/`` folder next to the packages (``$NEURALUV_RESULTS`` overrides it)."""
+    env = os.environ.get("NEURALUV_RESULTS")
+    return Path(env) if env else Path(__file__).resolve().parents[1] / "results"
+
+
+def _table_of(source):
+    """The paper's table a results file regenerates: its own entry, or, for a subset run in a
+    sub-folder (``ablation/paper-camel-1k/table4_ablation.md``), its folder's main table's.
+
+    Examples
+    --------
+    >>> _table_of("ablation/table4_ablation.md")["label"], _table_of("ablation/seeds/table4_ablation.md")["label"]
+    ('tab:ablation_prelim', 'tab:ablation_prelim')
+    >>> _table_of("ablation/notes.md") is None
+    True
+    """
+    parts = source.split("/")
+    for t in PAPER_TABLES:
+        if t["results"] in (source, "/".join(parts[:1] + parts[-1:])):
+            return t
+    return None
+
+
+def report_files(root=None):
+    """The findings files :func:`findings` reads: ``results/*/*.findings.json`` and those of the subset runs in
+    ``results/*/*/`` (sorted paths; empty without a ``results/`` folder)."""
+    root = results_dir() if root is None else Path(root)
+    return sorted([*root.glob("*/*.findings.json"), *root.glob("*/*/*.findings.json")])
+
+
+def findings(root=None):
+    """Every claim of every committed findings file, in the paper's table order.
+
+    Returns
+    -------
+    list of Claim
+        ``source`` is the report the file sits beside (relative to ``results/``). Empty when
+        there is no ``results/`` folder (an installed package).
+
+    Examples
+    --------
+    >>> import tempfile; d = Path(tempfile.mkdtemp()); (d / "ablation").mkdir()
+    >>> _ = (d / "ablation" / "table4_ablation.findings.json").write_text(json.dumps({"report": "table4_ablation.md",
+    ...     "findings": [{"claim": "k=0 hurts", "verdict": "holds", "detail": "6.75 vs 4.35"}]}))
+    >>> [(c.table, c.claim, c.verdict, c.source) for c in findings(d)]
+    [(3, 'k=0 hurts', 'holds', 'ablation/table4_ablation.md')]
+    """
+    root = results_dir() if root is None else Path(root)
+    out = []
+    for path in report_files(root):
+        data = json.loads(path.read_text(encoding="utf-8"))
+        source = (path.parent / data["report"]).relative_to(root).as_posix()
+        t = _table_of(source)
+        out += [Claim(source, t["number"] if t else None, f["claim"], f["verdict"], f.get("detail", ""))
+                for f in data["findings"]]
+    return sorted(out, key=lambda c: (c.table is None, c.table or 0))
+
+
+def _not_run(number):
+    t = next(t for t in PAPER_TABLES if t["number"] == number)
+    if t["runner"] is None:
+        why = "no runner in this package: the Amara Spatial assets (and the paper's Rust atlas code) are not available"
+    else:
+        why = f"no committed run; the runner is `neuraluv bench {t['runner']}`"
+    return Claim(None, number, t["title"][0].upper() + t["title"][1:], "not run", why)
+
+
+def _every_row(claims):
+    rows = claims + [_not_run(t["number"]) for t in PAPER_TABLES if t["results"] is None]
+    return sorted(rows, key=lambda c: (c.table is None, c.table or 0))
+
+
+def _select(chapter, claims):
+    rows = []
+    for sel in CHAPTER_CLAIMS.get(chapter, []):
+        if isinstance(sel, int):
+            rows.append(_not_run(sel))
+            continue
+        source, text = sel
+        rows += [c for c in claims if c.source == source and text in c.claim and c not in rows]
+    return rows
+
+
+def _cell(text):
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def _table(rows, with_notebooks=False, claims=None):
+    head = "| Paper | Claim | On our data | Evidence |"
+    sep = "|:--|:--|:--|:--|"
+    if with_notebooks:
+        head, sep = head + " Notebooks |", sep + ":--|"
+    lines = [head, sep]
+    for c in rows:
+        paper = f"Table {c.table}" if c.table else "—"
+        evidence = f"`results/{c.source}`" if c.source else "—"
+        verdict = f"**{c.verdict}**" + (f": {c.detail}" if c.detail else "")
+        line = f"| {paper} | {_cell(c.claim)} | {_cell(verdict)} | {evidence} |"
+        if with_notebooks:
+            nbs = sorted({ch for ch in CHAPTER_CLAIMS if c in _select(ch, claims)} | {"08"})
+            line += f" {', '.join(nbs)} |"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def checklist(chapter, root=None):
+    """The checklist rows a chapter touches, as a Markdown table read from the committed results.
+
+    Parameters
+    ----------
+    chapter : str
+        The notebook's number (``"01"``, ``"00b"``); ``"08"`` gives every row.
+    root : path, optional
+        The ``results/`` folder (default :func:`results_dir`).
+
+    Returns
+    -------
+    str
+        Markdown: one row per claim (paper table, claim, verdict and our numbers,
+        evidence file), or a one-line note when there is nothing to show.
+
+    Examples
+    --------
+    >>> checklist("99", root="/nonexistent").startswith("No committed")
+    True
+    """
+    claims = findings(root)
+    if chapter == "08":
+        rows = _every_row(claims)
+    else:
+        rows = _select(chapter, claims)
+    rows = [r for r in rows if r.source is None or claims]
+    if not rows:
+        return "No committed findings touch this chapter (no `results/` folder next to the package?)."
+    return _table(rows)
+
+
+def claims_page(root=None):
+    """The book's claims page: every claim → the notebooks that touch it → its evidence file (Markdown)."""
+    claims = findings(root)
+    rows = _every_row(claims)
+    lines = [
+        "# Claims checklist",
+        "",
+        "<!-- generated by book/build.py from neuraluv_paper.claims.claims_page(); do not edit by hand -->",
+        "",
+        "Every qualitative claim of the paper that a benchmark runner tests is listed below with what our committed",
+        "run found, the chapters that discuss it and the report it came with. The rows are read from the findings",
+        "each runner writes beside its report (`results/*/*.findings.json`, `neuraluv_paper.claims.findings()`), so",
+        "this page, notebook 08 and the checklist at the end of every chapter cannot drift from the numbers. Tables are",
+        "numbered as in the paper's LaTeX (the report file names keep the project's older numbering:",
+        "`table2_compact.md` is the paper's Table 1).",
+        "",
+        "## Claim → notebooks → evidence",
+        "",
+        "Verdicts: **holds**; **does not hold here** (our data disagree; read the detail before quoting the paper's",
+        "number); **not tested** (an optional tool is missing); **not run** (no committed run, or no runner at all).",
+        "",
+        _table(rows, with_notebooks=True, claims=claims),
+        "",
+        "## The paper's tables and where their evidence lives",
+        "",
+        "| Paper table | LaTeX label | Report | Runner |",
+        "|:--|:--|:--|:--|",
+    ]
+    for t in PAPER_TABLES:
+        rep = f"`results/{t['results']}`" if t["results"] else "—"
+        run = f"`neuraluv bench {t['runner']}`" if t["runner"] else "none"
+        lines.append(f"| Table {t['number']}: {t['title']} | `{t['label']}` | {rep} | {run} |")
+    return "\n".join(lines) + "\n"
+
+
+def reference(mesh, method="slim-1k", root=None):
+    """A committed Table 1 row: the reference point a notebook prints beside its own run.
+
+    Reads ``results/compact/table2_compact.csv`` (``neuraluv bench compact
+    --preset paper``; the paper's Table 1), so a notebook can set, e.g., SLIM-1k
+    on the same chart beside its number without spending the 20–40 s SLIM-1k
+    takes on Hand.
+
+    Parameters
+    ----------
+    mesh : str
+        ``"hand"``, ``"bob"`` or ``"camel"``.
+    method : str
+        The table's method name (``"slim-1k"``, ``"lscm"``, ``"bff"``,
+        ``"neural"`` for our ``paper`` preset, ...).
+    root : path, optional
+        The ``results/`` folder (default :func:`results_dir`).
+
+    Returns
+    -------
+    dict or None
+        ``esd``, ``flips``, ``flip_percent``, ``min_det``, ``time`` (floats) and
+        ``status``; None when the report or the row is missing (an installed
+        package, or a procedural stand-in chart).
+
+    Examples
+    --------
+    >>> reference("camel", root="/nonexistent") is None
+    True
+    >>> r = reference("camel")
+    >>> r is None or (r["status"] == "ok" and r["flips"] == 0 and r["esd"] > 4)
+    True
+    """
+    path = (results_dir() if root is None else Path(root)) / "compact" / "table2_compact.csv"
+    if not path.is_file():
+        return None
+    with open(path, newline="", encoding="utf-8") as fh:
+        row = next((r for r in csv.DictReader(fh)
+                    if (r["mesh"], r["mode"], r["method"]) == (mesh, "whole", method)), None)
+    if row is None:
+        return None
+    num = {k: float(row[k]) if row[k] not in ("", "nan") else float("nan")
+           for k in ("esd", "flips", "flip_percent", "min_det", "time")}
+    return {**num, "status": row["status"]}
