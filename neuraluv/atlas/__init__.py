@@ -22,7 +22,7 @@ Repairing a supplied layout (rather than making one) is :mod:`neuraluv.repair`.
 """
 from neuraluv.atlas.build import AtlasResult, build_atlas, repack
 from neuraluv.atlas.candidates import bisect_faces, chart_candidates, seam_charts
-from neuraluv.atlas.export import atlas_file, plot_density, plot_routes, read_atlas, save_renders, write_atlas
+from neuraluv.atlas.export import atlas_file, read_atlas, save_renders, write_atlas
 from neuraluv.atlas.prepare import prepare_mesh
 from neuraluv.atlas.routing import (FALLBACK_MAX_ESD, AtlasChart, boundary_is_simple, fallback_islands, pca_uv,
                                     per_face_uv, route_chart, route_charts, tutte_slim_uv, unfold_tree)
@@ -32,6 +32,6 @@ __all__ = [
     "AtlasChart", "AtlasResult", "prepare_mesh", "seam_charts", "bisect_faces", "chart_candidates",
     "pca_uv", "per_face_uv", "fallback_islands", "self_overlap", "triangles_union", "route_chart", "route_charts", "unfold_tree", "boundary_is_simple", "build_atlas",
     "tutte_slim_uv", "FALLBACK_MAX_ESD",
-    "validate_atlas", "write_atlas", "read_atlas", "plot_routes", "save_renders", "atlas_file", "uv_islands", "repack",
-    "face_texel_density", "plot_density",
+    "validate_atlas", "write_atlas", "read_atlas", "save_renders", "atlas_file", "uv_islands", "repack",
+    "face_texel_density",
 ]
