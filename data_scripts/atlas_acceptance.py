@@ -123,7 +123,7 @@ def run_repair(out, args):
     from neuraluv import datasets
     from neuraluv.io import read_obj, write_obj
     from neuraluv.metrics import distortion_metrics
-    from neuraluv.atlas.validate import uv_islands
+    from neuraluv.layout import uv_islands
     from neuraluv.metrics import face_dets
 
     if not (datasets.available("camel_b") and datasets.available("bob_tri")):

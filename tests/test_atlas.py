@@ -12,7 +12,7 @@ from neuraluv.atlas import (
     route_chart, tutte_slim_uv, write_atlas,
 )
 from neuraluv.layout import boundary_is_simple, self_overlap, uv_islands
-from neuraluv.layout import validate_layout as validate_atlas
+from neuraluv.layout import validate_layout
 from neuraluv.datasets import disk, sphere, spherical_cap
 from neuraluv.datasets.generated import add_nonmanifold, flip_windings, generated_asset, unweld
 from neuraluv.metrics import distortion_metrics
@@ -27,7 +27,7 @@ def _readback_ok(res, path):
     write_atlas(path, res.V, res.F, res.UV, res.FUV)
     V, F, UV, FUV = read_atlas(path)
     assert len(F) == len(res.F)
-    v = validate_atlas(V, F, UV, FUV, padding=res.info["padding"], resolution=res.info["resolution"])
+    v = validate_layout(V, F, UV, FUV, padding=res.info["padding"], resolution=res.info["resolution"])
     assert v["covered_faces"] == len(res.F)
     assert v["flips"] == 0
     assert v["overlapping_pairs"] == 0 and v["self_overlapping_islands"] == 0
@@ -135,27 +135,27 @@ def test_atlas_xatlas_packer(tmp_path):
     _readback_ok(res, tmp_path / "x.obj")
 
 
-def test_validate_atlas_detects_each_failure():
+def test_validate_layout_detects_each_failure():
     V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
     F = np.array([[0, 1, 2], [0, 1, 2]])
     FUV = np.array([[0, 1, 2], [3, 4, 5]])
     good = np.array([[0.1, 0.1], [0.3, 0.1], [0.1, 0.3], [0.6, 0.6], [0.8, 0.6], [0.6, 0.8]])
-    assert validate_atlas(V, F, good, FUV, padding=4, resolution=64)["valid"]
+    assert validate_layout(V, F, good, FUV, padding=4, resolution=64)["valid"]
     near = good.copy()
     near[3:] -= 0.35  # 0.07 apart, closer than 8 texels at 64 (0.125), not touching
-    r = validate_atlas(V, F, near, FUV, padding=8, resolution=64)
+    r = validate_layout(V, F, near, FUV, padding=8, resolution=64)
     assert r["padding_violations"] == 1 and not r["valid"]
     over = good.copy()
     over[3:] = good[:3] + 0.05
-    assert validate_atlas(V, F, over, FUV)["overlapping_pairs"] == 1
+    assert validate_layout(V, F, over, FUV)["overlapping_pairs"] == 1
     flip = good.copy()
     flip[[4, 5]] = flip[[5, 4]]
-    assert validate_atlas(V, F, flip, FUV)["flips"] == 1
+    assert validate_layout(V, F, flip, FUV)["flips"] == 1
     out = good.copy()
     out[0] = [-0.01, 0.1]
-    assert not validate_atlas(V, F, out, FUV)["uv_in_unit_square"]
+    assert not validate_layout(V, F, out, FUV)["uv_in_unit_square"]
     fold = np.array([[0.1, 0.1], [0.5, 0.1], [0.1, 0.5], [0.4, 0.4]])  # two faces of one island overlapping
-    r = validate_atlas(np.vstack([V, [[1, 1, 0]]]), np.array([[0, 1, 2], [0, 1, 3]]), fold, np.array([[0, 1, 2], [0, 1, 3]]))
+    r = validate_layout(np.vstack([V, [[1, 1, 0]]]), np.array([[0, 1, 2], [0, 1, 3]]), fold, np.array([[0, 1, 2], [0, 1, 3]]))
     assert r["self_overlapping_islands"] == 1 and not r["valid"]
 
 

@@ -4,7 +4,7 @@ import pytest
 
 from neuraluv.atlas import build_atlas
 from neuraluv.atlas.candidates import chart_candidates, merge_small_charts
-from neuraluv.layout import validate_layout as validate_atlas
+from neuraluv.layout import validate_layout
 from neuraluv.datasets import sphere
 from neuraluv.jacobian import signed_areas_2d
 from neuraluv.layout import texel_density, upright
@@ -31,7 +31,7 @@ def test_tight_pack_keeps_padding_orientation_and_beats_shelf():
         off = np.cumsum([0] + [len(u) for u in uvs])
         F = np.vstack([f + o for f, o in zip(fs, off[:-1])])
         V = np.column_stack([np.vstack(uvs), np.zeros(len(UV))])
-        val = validate_atlas(V, F, UV, F, padding=pad, resolution=res)
+        val = validate_layout(V, F, UV, F, padding=pad, resolution=res)
         assert val["valid"], val  # no flip (no mirrored island), no overlap, gaps >= padding, inside [0,1]^2
         assert (UV >= pad / res * (1 - 1e-6)).all() and (UV <= 1 - pad / res * (1 - 1e-6)).all()
         assert t.utilisation > s.utilisation
@@ -183,7 +183,7 @@ def test_stacking_identical_parts_shares_their_place_and_stays_valid():
     for c in (1, 2):
         assert np.array_equal(res.UV[res.FUV[c * m:(c + 1) * m]], res.UV[res.FUV[:m]])
     # without stack=True the same layout is three overlaps per place
-    val = validate_atlas(res.V, res.F, res.UV, res.FUV, padding=2, resolution=256)
+    val = validate_layout(res.V, res.F, res.UV, res.FUV, padding=2, resolution=256)
     assert val["overlapping_pairs"] == 3 * k and not val["valid"]
 
 
@@ -193,8 +193,8 @@ def test_stacked_validation_still_catches_partial_overlaps():
     UV = np.array([[.1, .1], [.4, .1], [.1, .4], [.2, .2], [.5, .2], [.2, .5]])
     on_top = np.array([[.1, .1], [.4, .1], [.1, .4]] * 2)
     FUV = np.array([[0, 1, 2], [3, 4, 5]])
-    assert validate_atlas(V, F, UV, FUV, stacked=True)["overlapping_pairs"] == 1
-    r = validate_atlas(V, F, on_top, FUV, stacked=True)
+    assert validate_layout(V, F, UV, FUV, stacked=True)["overlapping_pairs"] == 1
+    r = validate_layout(V, F, on_top, FUV, stacked=True)
     assert r["overlapping_pairs"] == 0 and r["stacked_islands"] == 1 and r["valid"]
 
 

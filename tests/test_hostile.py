@@ -42,10 +42,10 @@ def _one_line_error(code, err, *words):
 
 def _valid_output(path):
     from neuraluv.atlas import read_atlas
-    from neuraluv.layout import validate_layout as validate_atlas
+    from neuraluv.layout import validate_layout
 
     V, F, UV, FUV = read_atlas(path)
-    v = validate_atlas(V, F, UV, FUV, check_padding=False)
+    v = validate_layout(V, F, UV, FUV, check_padding=False)
     assert v["flips"] == 0 and v["non_finite_faces"] == 0 and v["covered_faces"] == len(F)
     return v
 

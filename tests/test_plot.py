@@ -156,6 +156,161 @@ def test_live_view_falls_back_to_a_static_figure(monkeypatch):
     assert isinstance(fig, matplotlib.figure.Figure) and "static view" in fig.axes[0].get_title()
     with pytest.raises(ValueError, match="backend"):
         plot.live_view(V, F, backend="vtk")
-    if not plot._trame_available():
+    if not plot.trame_available():
         with pytest.raises(ImportError, match=r"neuraluv\[viewer\]"):
             plot.live_view(V, F, backend="trame")
+
+
+# --------------------------------------------------------------------------- the package's shape
+
+
+def test_import_plot_loads_no_renderer():
+    import subprocess
+    import sys
+
+    code = ("import sys, neuraluv, neuraluv.plot; "
+            "print(' '.join(m for m in ('torch', 'scipy', 'matplotlib', 'pyvista', 'plotly', 'vtk') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == ""  # drawing imports its back-end; importing the package loads numpy only
+
+
+def test_package_reexports_every_public_name_of_its_modules():
+    import importlib
+
+    for name in ("style", "surface", "mpl", "interactive", "figures"):
+        mod = importlib.import_module(f"neuraluv.plot.{name}")
+        for attr in mod.__all__:
+            if attr == "frame_title":  # a helper of the two film figures, not a figure
+                continue
+            assert getattr(plot, attr) is getattr(mod, attr), (name, attr)
+            assert attr in plot.__all__, (name, attr)
+    assert not [n for n in plot.__all__ if n.startswith("_")]
+
+
+def test_no_caller_reaches_into_plot_privates():
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    private = re.compile(r"\bplot\._[a-z]|from neuraluv\.plot(\.\w+)? import [^\n]*\b_[a-z]")
+    files = [p for d in ("neuraluv", "tests", "notebooks", "book", "data_scripts") for p in (root / d).rglob("*")
+             if p.suffix in (".py", ".ipynb", ".md") and "plot" not in p.relative_to(root).parts[:2]]
+    bad = [f"{p.relative_to(root)}:{i + 1}" for p in files
+           for i, line in enumerate(p.read_text(encoding="utf-8", errors="replace").splitlines()) if private.search(line)]
+    assert bad == []
+
+
+def test_pyplot_is_matplotlibs_pyplot():
+    assert plot.pyplot() is plt
+
+
+# --------------------------------------------------------------------------- colours
+
+
+def test_colour_map_endpoints():
+    import matplotlib
+
+    cm = matplotlib.colormaps[plot.DETJ_CMAP]
+    rgba, sm = plot.scalar_colors(np.array([-5.0, 0.0, 1e-9, 1.0, 2.0, 2.0 + 1e-12]), "detj", (0, 2.0))
+    assert np.allclose(rgba[:2], plot.DETJ_FOLD_COLOR)  # folded: red, however folded
+    assert np.allclose(rgba[2], cm(0.0), atol=1e-6)  # just above 0: the map's bottom, not red
+    assert np.allclose(rgba[3], cm(0.5)) and np.allclose(rgba[4], cm(1.0)) and np.allclose(rgba[5], cm(1.0))
+    assert tuple(plot.detj_cmap().get_under()) == plot.DETJ_FOLD_COLOR
+    nan = plot.scalar_colors(np.array([np.nan]), "detj")[0][0]
+    assert np.allclose(nan, (0.5, 0.5, 0.5, 1.0))  # NaN is grey, not a fold
+    # any other map: the values' range onto the map's ends, a constant without dividing by zero
+    rgba, sm = plot.scalar_colors(np.array([2.0, 3.0, 4.0]), "viridis")
+    v = matplotlib.colormaps["viridis"]
+    assert np.allclose(rgba[0], v(0.0)) and np.allclose(rgba[2], v(1.0)) and sm.norm.vmin == 2.0
+    rgba, _ = plot.scalar_colors(np.array([7.0, 7.0]), "viridis")
+    assert np.isfinite(rgba).all()
+    rgba, _ = plot.scalar_colors(np.array([0.0, 10.0]), "viridis", (0.0, 5.0))
+    assert np.allclose(rgba[1], v(1.0))  # clipped at clim's top
+
+
+def test_detj_colorbar_ticks_stop_at_its_top():
+    fig, ax = plt.subplots()
+    _, sm = plot.scalar_colors(np.ones(3), "detj", (0, 2.0))
+    cb = plot.add_colorbar(ax, sm, "det J", detj=True)
+    assert cb.get_ticks().tolist() == [0.0, 0.5, 1.0, 2.0] and cb.extend == "both"
+    _, sm = plot.scalar_colors(np.arange(3.0), "magma")
+    assert plot.add_colorbar(ax, sm, "value").extend == "neither"
+    plt.close("all")
+
+
+# --------------------------------------------------------------------------- domain figures
+
+
+def _routed_cap():
+    V, F = datasets.spherical_cap(4)
+    UV = tutte(V, F)
+    UV = (UV - UV.min(0)) / np.ptp(UV) * 0.9 + 0.05
+    route = np.ones(len(F), int)
+    route[: len(F) // 4] = 0
+    route[-len(F) // 4:] = 2
+    return V, F, UV, route
+
+
+def test_plot_routes_takes_an_atlas_result_or_the_arrays():
+    from types import SimpleNamespace
+
+    V, F, UV, route = _routed_cap()
+    res = SimpleNamespace(V=V, F=F, UV=UV, FUV=F, face_route=route, charts=[],
+                          totals=lambda: {"islands": 7, "flips": 0})
+    a = plot.plot_routes(res)
+    b = plot.plot_routes(V, F, UV, F, route, islands=7, flips=0)
+    titles = [[ax.get_title() for ax in f.axes] for f in (a, b)]
+    assert titles[0] == titles[1] and len(a.axes) == 3 and titles[0][1] == "(b) atlas: 7 islands, 0 flips"
+    assert plot.plot_routes(res, islands=3, zoom=False).axes[1].get_title() == "(b) atlas: 3 islands, 0 flips"
+    # the atlas panel's faces carry the route colours
+    fc = a.axes[1].collections[0].get_facecolor()
+    assert np.allclose(fc[0], plot.ROUTE_COLORS["fallback"]) and np.allclose(fc[-1], plot.ROUTE_COLORS["exact"])
+    with pytest.raises(TypeError, match="alone"):
+        plot.plot_routes(res, F)
+    with pytest.raises(TypeError, match="face_route"):
+        plot.plot_routes(V, F, UV)
+    plt.close("all")
+
+
+def test_plot_density_colours_faces_by_density():
+    V, F, UV, _ = _routed_cap()
+    d = np.where(np.arange(len(F)) % 2, 1.25, 1.0)
+    fig = plot.plot_density(V, F, UV, F, d, title="cap")
+    rgba, _ = plot.scalar_colors(d, "coolwarm", (0.5, 1.5))
+    assert np.allclose(fig.axes[1].collections[0].get_facecolor(), rgba)
+    assert fig._suptitle.get_text() == "cap; density spread 25%"
+    assert "texel density" in fig.axes[2].get_ylabel()
+    plt.close("all")
+
+
+def test_plot_repair_marks_the_changed_faces():
+    from types import SimpleNamespace
+
+    V, F = datasets.disk(4)
+    UV = tutte(V, F)
+    before = UV.copy()
+    before[0] += [0.6, 0.0]  # a fold the repair removed
+    changed = np.isin(F, [0]).any(axis=1)
+    res = SimpleNamespace(V=V, F=F, UV=UV, FUV=F, UV_in=before, FUV_in=F, changed_faces=changed,
+                          before=SimpleNamespace(validation={"flips": 3, "overlapping_pairs": 0}),
+                          after=SimpleNamespace(validation={"flips": 0}))
+    fig = plot.plot_repair(res, title="disk")
+    assert len(fig.axes) == 3  # before, after, zoom on the changed faces
+    assert fig.axes[0].get_title().startswith("(a) before: 3 flips")
+    assert fig.axes[1].get_title() == f"(b) after: {int(changed.sum())} faces changed (orange), 0 flips"
+    after = fig.axes[1].collections[0].get_facecolor()
+    assert np.allclose(after[changed], [1.0, 0.6, 0.1, 1.0]) and not np.allclose(after[~changed][:, 0], 1.0)
+    assert len(plot.plot_repair(res, zoom=False).axes) == 2
+    plt.close("all")
+
+
+def test_saved_figures_and_self_contained_plotly(tmp_path):
+    V, F, UV, _ = _routed_cap()
+    plot.save_checkerboard_transfer(tmp_path / "c.png", V, F, UV)
+    assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG" and not plt.get_fignums()  # written and closed
+    pytest.importorskip("plotly")
+    pytest.importorskip("IPython")
+    shown = plot.show_plotly(plot.plotly_linked_views(V, F, UV))
+    html = getattr(shown, "data", shown)
+    assert "plotly_hover" in html  # the linked-hover script rides along
+    assert 'src="https://cdn.plot.ly' not in html and len(html) > 1_000_000  # plotly.js embedded

@@ -23,7 +23,7 @@ layout is, and everything both ask of one, is :mod:`neuraluv.layout`.
 """
 from neuraluv.atlas.build import AtlasResult, build_atlas, repack
 from neuraluv.atlas.candidates import chart_candidates, seam_charts
-from neuraluv.atlas.export import atlas_file, plot_density, plot_routes, read_atlas, save_renders, write_atlas
+from neuraluv.atlas.export import atlas_file, read_atlas, save_renders, write_atlas
 from neuraluv.atlas.prepare import prepare_mesh
 from neuraluv.atlas.routing import (FALLBACK_MAX_ESD, AtlasChart, fallback_islands, pca_uv, per_face_uv, route_chart,
                                     route_charts, tutte_slim_uv, unfold_tree)
@@ -32,5 +32,5 @@ __all__ = [
     "AtlasChart", "AtlasResult", "prepare_mesh", "seam_charts", "chart_candidates",
     "pca_uv", "per_face_uv", "fallback_islands", "route_chart", "route_charts", "unfold_tree", "build_atlas",
     "tutte_slim_uv", "FALLBACK_MAX_ESD",
-    "write_atlas", "read_atlas", "plot_routes", "save_renders", "atlas_file", "repack", "plot_density",
+    "write_atlas", "read_atlas", "save_renders", "atlas_file", "repack",
 ]

@@ -1,4 +1,4 @@
-"""Atlas export: OBJ/GLB writing and reading back, figures, and the file-to-file :func:`atlas_file`."""
+"""Atlas export: OBJ/GLB writing and reading back, the figures as PNGs, and the file-to-file :func:`atlas_file`."""
 from __future__ import annotations
 
 import json
@@ -6,12 +6,14 @@ from pathlib import Path
 
 import numpy as np
 
+from neuraluv import plot
 from neuraluv.atlas.build import build_atlas
+from neuraluv.layout.facts import face_texel_density
 from neuraluv.layout.validate import validate_layout
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import atomic_write, jsonable, load_mesh, read_obj, write_obj
 
-__all__ = ["write_atlas", "read_atlas", "plot_routes", "save_renders", "atlas_file"]
+__all__ = ["write_atlas", "read_atlas", "save_renders", "atlas_file"]
 
 
 def write_atlas(path, V, F, UV, FUV):
@@ -63,61 +65,28 @@ def read_atlas(path):
     return np.vstack(Vs), F, np.vstack(Us), F.copy()
 
 
-def plot_routes(res, *, zoom=True, view=None):
-    """The routing figure (the paper's Figure 11) of an :class:`~neuraluv.atlas.build.AtlasResult` (see :func:`neuraluv.plot.plot_routes`)."""
-    from neuraluv.plot import plot_routes as _plot
-
-    t = res.totals()
-    return _plot(res.V, res.F, res.UV, res.FUV, res.face_route, islands=t["islands"], flips=t["flips"], zoom=zoom,
-                 view=view)
-
-
-def plot_density(V, F, UV, FUV, *, title=None, view="plane", axes=None):
-    """The texel-density figure of a layout: each face coloured by its island's density over the median island.
-
-    White is the median density; blue islands get fewer texels per unit length
-    (blurrier), red ones more. One texel density (``build_atlas``) is white
-    everywhere; xatlas's own atlas is not.
+def save_renders(res, outdir, stem="atlas"):
+    """Write the checkerboard transfer, the route figure (the paper's Figure 11) and the texel-density figure as PNGs.
 
     Parameters
     ----------
-    V, F, UV, FUV : the mesh and its layout
-    title : str, optional
-    view : camera (see :func:`neuraluv.plot.render_surface`)
-    axes : two matplotlib Axes, optional
+    res : AtlasResult
+    outdir : folder (created when missing)
+    stem : str
+        File names are ``{stem}_checkerboard.png``, ``{stem}_routes.png``, ``{stem}_density.png``.
 
     Returns
     -------
-    fig : matplotlib Figure
+    list of Path
     """
-    from neuraluv.layout.facts import face_texel_density
-    from neuraluv.plot import plot_surface_and_uv
-
-    d = face_texel_density(V, F, UV, FUV)
-    spread = float(np.nanmax(d) / np.nanmin(d) - 1) if np.isfinite(d).any() else float("nan")
-    return plot_surface_and_uv(V, F, UV, d, FUV=FUV, cmap="coolwarm", clim=(0.5, 1.5), view=view, axes=axes,
-                               label="texel density / median island",
-                               title=(title + "; " if title else "") + f"density spread {100 * spread:.2g}%")
-
-
-def save_renders(res, outdir, stem="atlas"):
-    """Write the checkerboard transfer, the route figure and the texel-density figure as PNGs; returns the paths."""
-    import matplotlib.pyplot as plt
-
-    from neuraluv.plot import plot_checkerboard_transfer
-
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name, make in (("checkerboard", lambda: plot_checkerboard_transfer(res.V, res.F, res.UV, res.FUV)),
-                       ("routes", lambda: plot_routes(res)),
-                       ("density", lambda: plot_density(res.V, res.F, res.UV, res.FUV))):
-        fig = make()
-        p = outdir / f"{stem}_{name}.png"
-        with atomic_write(p, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=110)
-        plt.close(fig)
-        paths.append(p)
+    for name, make in (("checkerboard", lambda: plot.plot_checkerboard_transfer(res.V, res.F, res.UV, res.FUV)),
+                       ("routes", lambda: plot.plot_routes(res)),
+                       ("density", lambda: plot.plot_density(res.V, res.F, res.UV, res.FUV,
+                                                             face_texel_density(res.V, res.F, res.UV, res.FUV)))):
+        paths.append(plot.save_figure(make(), outdir / f"{stem}_{name}.png"))
     return paths
 
 

@@ -542,7 +542,7 @@ def _findings(summary, rows):
 def _figure(out, rows):
     from neuraluv import plot
 
-    plt = plot._mpl()
+    plt = plot.pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.6))
     for m, mk in (("neural", "o"), ("bff", "s"), ("slim-1k", "^")):
         rs = [r for r in rows if r["method"] == m]

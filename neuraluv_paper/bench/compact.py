@@ -355,7 +355,7 @@ def _figures(out, loaded, methods):
     from neuraluv.metrics import face_metrics
     from neuraluv.topology import topology_scan
 
-    plt = plot._mpl()
+    plt = plot.pyplot()
     meths = [m for m in methods if m not in RECUT]
     single = [(n, V, F) for n, V, F in loaded if topology_scan(V, F).components == 1]
     if not single or not meths:

@@ -559,7 +559,7 @@ def probe_figure(out):
 def _probe_figure(probe, path):
     from neuraluv import plot
 
-    plt = plot._mpl()
+    plt = plot.pyplot()
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [1.3, 1]})
     groups = {}
     for r in probe["rows"]:

@@ -201,7 +201,7 @@ def _findings(summary):
 def _figure(out, summary):
     from neuraluv import plot
 
-    plt = plot._mpl()
+    plt = plot.pyplot()
     fig, ax = plt.subplots(figsize=(6, 4))
     for g, col in (("compact", "tab:blue"), ("xatlas", "tab:orange")):
         ss = [s for s in summary if s["set"] == g]
