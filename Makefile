@@ -20,7 +20,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet torch==2.13.0
-	$(BIN)/pip install --quiet -e ".[test,docs]"
+	$(BIN)/pip install --quiet -e ".[test,docs,render,sweep]"
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -90,7 +90,7 @@ reproduce-quick: install data
 RESULTS ?= results
 reproduce: install data
 	@git diff --quiet HEAD -- neuraluv || echo "warning: neuraluv/ has uncommitted changes: the reports will record +dirty"
-	$(BIN)/pip install --quiet -e ".[bench]"  # mouette: the repair table's classical anchor
+	$(BIN)/pip install --quiet -e ".[paper]"  # the harness extra: mouette, the repair table's classical anchor
 	$(BIN)/neuraluv bench compact --preset paper --resume -o $(RESULTS)/compact
 	$(BIN)/neuraluv bench failure-modes --preset paper --resume -o $(RESULTS)/failure-modes
 	$(BIN)/neuraluv bench ablation --preset paper --seeds 0 1 2 --resume -o $(RESULTS)/ablation

@@ -16,3 +16,26 @@ class MeshLoadError(NeuralUVError):
 
 class TopologyError(NeuralUVError):
     """A chart violates the solver's assumptions (e.g. it is not disk-like)."""
+
+
+#: Optional packages -> the extra that installs them (``pip install "neuraluv[EXTRA]"``).
+EXTRAS = {"pyvista": "render", "vtk": "render", "plotly": "render", "dask": "sweep", "distributed": "sweep",
+          "mouette": "paper"}
+
+
+def missing_extra(exc):
+    """The one-line :class:`NeuralUVError` for an optional package that is not installed.
+
+    Parameters
+    ----------
+    exc : ModuleNotFoundError
+
+    Examples
+    --------
+    >>> str(missing_extra(ModuleNotFoundError("No module named 'pyvista'", name="pyvista")))
+    'this needs the optional package pyvista: pip install "neuraluv[render]"'
+    """
+    name = (exc.name or "").split(".")[0]
+    extra = EXTRAS.get(name)
+    hint = f'pip install "neuraluv[{extra}]"' if extra else f"pip install {name}"
+    return NeuralUVError(f"this needs the optional package {name}: {hint}")

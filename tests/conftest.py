@@ -29,3 +29,55 @@ def write_mesh(path, V, F):
     import trimesh
 
     trimesh.Trimesh(V, F, process=False).export(path)
+
+
+def l_shaped_islands(k=12, seed=0):
+    """``k`` L-shaped islands of random sizes (UVs, faces): boxes waste space around them, shapes do not."""
+    rng = np.random.default_rng(seed)
+    uvs, fs = [], []
+    for _ in range(k):  # L-shaped charts of random sizes: boxes waste space, shapes do not
+        s = rng.uniform(0.5, 2.0)
+        P = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], float) * s
+        uvs.append(P)
+        fs.append(np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]]))
+    return uvs, fs
+
+
+def strip_island(n, width=1.0):
+    """A long (n,1) strip of 2n triangles in the plane: its own UVs and 3D positions."""
+    x = np.repeat(np.arange(n + 1, dtype=float), 2)
+    y = np.tile([0.0, width], n + 1)
+    uv = np.column_stack([x, y])
+    F = np.array([[2 * i, 2 * i + 2, 2 * i + 3] for i in range(n)] + [[2 * i, 2 * i + 3, 2 * i + 1] for i in range(n)])
+    return uv, F
+
+
+def three_copies():
+    """A sphere and two copies of it (one turned, one moved): ``V, F, faces per copy``."""
+    from scipy.spatial.transform import Rotation
+
+    from neuraluv.datasets import sphere
+
+    V, F = sphere(1)
+    R = Rotation.from_euler("xyz", [0.3, 1.0, -0.5]).as_matrix()
+    return np.vstack([V, V @ R.T + [3, 0.5, 0], V + [0, 3, 0]]), np.vstack([F, F + len(V), F + 2 * len(V)]), len(F)
+
+
+def two_islands():
+    """Two disks side by side in the unit square (one layout, two islands)."""
+    from neuraluv import datasets
+    from neuraluv.tutte import tutte
+
+    V, F = datasets.spherical_cap(5)
+    UV = tutte(V, F)
+    UV = (UV - UV.min(0)) / np.ptp(UV, axis=0).max() * 0.4
+    V2 = np.vstack([V, V + [3.0, 0, 0]])
+    F2 = np.vstack([F, F + len(V)])
+    UV2 = np.vstack([UV + [0.05, 0.3], UV + [0.55, 0.3]])
+    return V2, F2, UV2, F2.copy(), np.arange(len(F)), np.arange(len(F), 2 * len(F))
+
+
+def write_layout(path, V, F, UV, FUV):
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in V] + [f"vt {u:.17g} {v:.17g}" for u, v in UV]
+    lines += [f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}" for (a, b, c), (ta, tb, tc) in zip(F, FUV)]
+    path.write_text("\n".join(lines) + "\n")

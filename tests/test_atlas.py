@@ -7,18 +7,18 @@ import json
 import numpy as np
 import pytest
 
-from neuraluv.atlas import (
-    FALLBACK_MAX_ESD, build_atlas, chart_candidates, fallback_islands, pca_uv, per_face_uv, prepare_mesh, read_atlas,
-    route_chart, tutte_slim_uv, write_atlas,
-)
-from neuraluv.layout import boundary_is_simple, self_overlap, uv_islands
-from neuraluv.layout import validate_layout
+from neuraluv.atlas import (FALLBACK_MAX_ESD, build_atlas, chart_candidates, fallback_islands, pca_uv, per_face_uv,
+                            prepare_mesh, read_atlas, route_chart, tutte_slim_uv, write_atlas)
+from neuraluv.atlas.candidates import merge_small_charts
 from neuraluv.datasets import disk, sphere, spherical_cap
 from neuraluv.datasets.generated import add_nonmanifold, flip_windings, generated_asset, unweld
+from neuraluv.layout import boundary_is_simple, self_overlap, uv_islands, validate_layout
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver import get_config
 from neuraluv.topology import bisect_faces, is_disk_like, topology_scan
 from neuraluv.tutte import tutte
+
+from conftest import three_copies
 
 FAST = dict(preset="test", iterations=30, resolution=512, padding=4, threads=1, device="cpu")
 
@@ -135,30 +135,6 @@ def test_atlas_xatlas_packer(tmp_path):
     _readback_ok(res, tmp_path / "x.obj")
 
 
-def test_validate_layout_detects_each_failure():
-    V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
-    F = np.array([[0, 1, 2], [0, 1, 2]])
-    FUV = np.array([[0, 1, 2], [3, 4, 5]])
-    good = np.array([[0.1, 0.1], [0.3, 0.1], [0.1, 0.3], [0.6, 0.6], [0.8, 0.6], [0.6, 0.8]])
-    assert validate_layout(V, F, good, FUV, padding=4, resolution=64)["valid"]
-    near = good.copy()
-    near[3:] -= 0.35  # 0.07 apart, closer than 8 texels at 64 (0.125), not touching
-    r = validate_layout(V, F, near, FUV, padding=8, resolution=64)
-    assert r["padding_violations"] == 1 and not r["valid"]
-    over = good.copy()
-    over[3:] = good[:3] + 0.05
-    assert validate_layout(V, F, over, FUV)["overlapping_pairs"] == 1
-    flip = good.copy()
-    flip[[4, 5]] = flip[[5, 4]]
-    assert validate_layout(V, F, flip, FUV)["flips"] == 1
-    out = good.copy()
-    out[0] = [-0.01, 0.1]
-    assert not validate_layout(V, F, out, FUV)["uv_in_unit_square"]
-    fold = np.array([[0.1, 0.1], [0.5, 0.1], [0.1, 0.5], [0.4, 0.4]])  # two faces of one island overlapping
-    r = validate_layout(np.vstack([V, [[1, 1, 0]]]), np.array([[0, 1, 2], [0, 1, 3]]), fold, np.array([[0, 1, 2], [0, 1, 3]]))
-    assert r["self_overlapping_islands"] == 1 and not r["valid"]
-
-
 def test_bad_inputs_are_refused_or_valid(tmp_path):
     from neuraluv.errors import NeuralUVError
 
@@ -169,34 +145,6 @@ def test_bad_inputs_are_refused_or_valid(tmp_path):
     huge = np.array([[0.0, 0, 0], [1e300, 0, 0], [0, 1e300, 0], [1e300, 1e300, 1e290]])
     res = build_atlas(huge, np.array([[0, 1, 2], [1, 3, 2]]), **FAST)
     _readback_ok(res, tmp_path / "huge.obj")
-
-
-def test_cli_check_atlas_and_errors(tmp_path, capsys):
-    from neuraluv.cli import main
-    from neuraluv.io import write_obj
-
-    V, F, _ = generated_asset(7, res=14)
-    src = tmp_path / "in.obj"
-    write_obj(src, V, F, np.zeros((len(V), 2)))
-    assert main(["check", str(src), "--json"]) == 0
-    chk = json.loads(capsys.readouterr().out)
-    kinds = {f["kind"] for f in chk["findings"]}
-    assert {"non-manifold edges", "duplicate faces"} <= kinds
-    assert all(f["meaning"] and f["repair"] for f in chk["findings"])
-    out, rep = tmp_path / "a.obj", tmp_path / "a.json"
-    rc = main(["atlas", str(src), "-o", str(out), "--report", str(rep), "--preset", "test", "--iterations", "10",
-               "--resolution", "512", "--threads", "1", "--quiet"])
-    assert rc == 0
-    r = json.loads(rep.read_text())
-    assert r["ok"] and r["readback"]["flips"] == 0 and r["readback"]["covered_faces"] == r["totals"]["repaired_faces"]
-    t = r["totals"]
-    assert abs(t["neural_share"] + t["exact_share"] + t["fallback_share"] - 1) < 1e-12
-    capsys.readouterr()
-    (tmp_path / "empty.obj").write_text("")
-    assert main(["atlas", str(tmp_path / "empty.obj"), "-o", str(tmp_path / "e.obj")]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "empty" in err[0]
-    assert main(["atlas", str(src), "-o", str(tmp_path / "e.png")]) == 2
 
 
 def test_renders_route_figure(tmp_path):
@@ -280,3 +228,87 @@ def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
     assert len(charts) >= 2 and all(c.route in ("neural", "exact") for c in charts)
     assert sorted(np.concatenate([c.faces for c in charts]).tolist()) == list(range(len(F)))
     assert all("split after: neural map overlaps itself" in c.source for c in charts)
+
+
+def test_merge_small_charts_keeps_disks_and_covers_once():
+    V, F = sphere(2)
+    cands = chart_candidates(V, F)
+    merged = merge_small_charts(V, F, cands, max_faces=10**9, max_curvature=0.5)
+    assert len(merged) <= len(cands)
+    allf = np.sort(np.concatenate([f for f, _ in merged]))
+    assert np.array_equal(allf, np.arange(len(F)))
+
+
+def test_atlas_has_one_texel_density_and_udim_tiles_validate():
+    V, F = sphere(2)
+    res = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu")
+    assert res.valid and res.validation["density_spread"] < 0.01
+    assert res.info["packer"] == "tight" and res.info["pages"] == 1
+    dens = 1.5 * res.info["pack_scale"] * 256 / 2.0  # 1.5 x the density that fits one page (sphere: unit = 2)
+    tiled = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu", texel_density=dens)
+    assert tiled.info["pages"] > 1 and tiled.valid, tiled.validation
+    assert tiled.UV.max() > 1  # UDIM tiles beyond the first
+    with pytest.raises(Exception, match="resolution"):
+        build_atlas(V, F, "test", resolution=256, padding=2, device="cpu", texel_density=40 * dens)
+    with pytest.raises(Exception, match="tight"):
+        build_atlas(V, F, "test", resolution=256, padding=2, device="cpu", packer="shelf", texel_density=dens)
+
+
+def test_stacking_identical_parts_shares_their_place_and_stays_valid():
+    V, F, m = three_copies()
+    plain = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu")
+    res = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu", stack=True)
+    assert plain.validation["stacked_islands"] == 0 and res.valid
+    k = res.validation["islands"] // 3
+    assert res.validation["stacked_islands"] == 2 * k == res.info["stacked_islands"]
+    assert res.validation["overlapping_pairs"] == 0 and res.totals()["flips"] == 0
+    # the copies carry exactly the first copy's UVs, face for face
+    for c in (1, 2):
+        assert np.array_equal(res.UV[res.FUV[c * m:(c + 1) * m]], res.UV[res.FUV[:m]])
+    # without stack=True the same layout is three overlaps per place
+    val = validate_layout(res.V, res.F, res.UV, res.FUV, padding=2, resolution=256)
+    assert val["overlapping_pairs"] == 3 * k and not val["valid"]
+
+
+def test_chart_with_a_hole_is_solved_whole_with_a_filler():
+    from neuraluv.atlas.candidates import chart_is_disk, chart_mesh
+    from neuraluv.atlas.routing import route_charts
+    from neuraluv.datasets import disk
+    from neuraluv.solver.config import get_config
+    from neuraluv.topology import is_disk_like, submesh
+
+    V, F = disk(n_rings=5)
+    ring = np.array([f for f in range(len(F)) if 0 not in F[f]])  # an annulus: the centre's fan removed
+    vi, Fl = submesh(F, ring)
+    assert not is_disk_like(V[vi], Fl)[0] and chart_is_disk(V, F, ring)[0]
+    vi, Fl, Vx, Fx = chart_mesh(V, F, ring)
+    inner = np.setdiff1d(F[(F == 0).any(1)], [0])  # the hole's rim: the removed centre's neighbours
+    assert len(Vx) == 1 and len(Fx) == len(inner) and np.allclose(Vx[0], V[inner].mean(0))
+    (c,) = route_charts(V, F, [(ring, "annulus")], get_config("test", iterations=60, retries=0))
+    assert c.route == "neural" and len(c.islands) == 1 and c.solver["filled_holes"] == 1
+    fidx, vi2, Fl2, uv = c.islands[0]
+    assert np.array_equal(fidx, ring) and len(uv) == len(vi2) and c.metrics["flips"] == 0
+
+
+def test_chart_touching_itself_at_a_vertex_is_split_there_not_cut():
+    from neuraluv.atlas.candidates import chart_is_disk, chart_mesh
+    from neuraluv.topology import is_disk_like, submesh
+
+    n = 4  # a 4x4 grid of cells; the chart winds round and meets itself at grid vertex (2, 2) only
+    V = np.array([[c, r, 0.0] for r in range(n + 1) for c in range(n + 1)])
+    vid = lambda r, c: r * (n + 1) + c  # noqa: E731
+    cells = [(1, 1), (1, 0), (2, 0), (3, 0), (3, 1), (3, 2), (2, 2)]
+    F = []
+    for r, c in cells:
+        a, b, d, e = vid(r, c), vid(r + 1, c), vid(r, c + 1), vid(r + 1, c + 1)
+        F += [[a, d, e], [a, e, b]]
+    F = np.array(F)
+    chart = np.arange(len(F))
+    vi, Fl = submesh(F, chart)
+    assert not is_disk_like(V[vi], Fl)[0]
+    vi, Fl, Vx, Fx = chart_mesh(V, F, chart)
+    assert (vi == vid(2, 2)).sum() == 2 and len(Vx) == 0 and chart_is_disk(V, F, chart)[0]
+    # two pieces touching at a vertex are not "holes": no filler, still not a disk
+    two = np.array([0, 1, 12, 13])
+    vi, Fl, Vx, Fx = chart_mesh(V, F, two)
+    assert len(Vx) == 0 and not chart_is_disk(V, F, two)[0]

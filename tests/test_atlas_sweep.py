@@ -6,9 +6,9 @@ import pytest
 
 pytest.importorskip("distributed", reason="dask.distributed is not installed")
 
+from neuraluv.atlas.sweep import atlas_asset, list_assets, summarize, sweep  # noqa: E402
 from neuraluv.datasets.generated import generated_asset  # noqa: E402
 from neuraluv.io import write_obj  # noqa: E402
-from neuraluv.atlas.sweep import atlas_asset, list_assets, summarize, sweep  # noqa: E402
 
 KW = dict(preset="test", iterations=10, resolution=512, padding=4)
 

@@ -10,7 +10,6 @@ from neuraluv.topology import is_disk_like, topology_scan
 
 from conftest import real_mesh
 
-
 ROOT = Path(__file__).resolve().parents[1]
 
 

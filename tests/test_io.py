@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from conftest import write_mesh
-
 from neuraluv import datasets
 from neuraluv.errors import MeshLoadError
 from neuraluv.io import load_mesh, read_obj, write_obj
+
+from conftest import write_mesh
 
 
 def test_write_read_roundtrip(tmp_path):

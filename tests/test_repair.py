@@ -3,26 +3,16 @@ import numpy as np
 
 from neuraluv import datasets
 from neuraluv.io import read_obj
-from neuraluv.metrics import distortion_metrics, face_dets
-from neuraluv_paper import damage
 from neuraluv.layout import layout_facts
 from neuraluv.layout import texel_density as reference_scale
-from neuraluv.layout.overlap import overlapping_pairs, pair_areas
+from neuraluv.metrics import distortion_metrics, face_dets
 from neuraluv.repair.diagnose import diagnose_layout
 from neuraluv.repair.repair import repair_layout
 from neuraluv.repair.untangle import polish, untangle
 from neuraluv.tutte import tutte
+from neuraluv_paper import damage
 
-
-def _two_islands():
-    """Two disks side by side in the unit square (one layout, two islands)."""
-    V, F = datasets.spherical_cap(5)
-    UV = tutte(V, F)
-    UV = (UV - UV.min(0)) / np.ptp(UV, axis=0).max() * 0.4
-    V2 = np.vstack([V, V + [3.0, 0, 0]])
-    F2 = np.vstack([F, F + len(V)])
-    UV2 = np.vstack([UV + [0.05, 0.3], UV + [0.55, 0.3]])
-    return V2, F2, UV2, F2.copy(), np.arange(len(F)), np.arange(len(F), 2 * len(F))
+from conftest import two_islands
 
 
 def _flat_disk(n_rings=16):
@@ -35,16 +25,6 @@ def _flat_disk(n_rings=16):
 
 
 # ---------------------------------------------------------------- building blocks
-
-
-def test_overlap_test_agrees_with_exact_polygon_areas():
-    rng = np.random.default_rng(0)
-    P = rng.random((400, 3, 2))
-    Q = rng.random((400, 3, 2)) * 0.6 + 0.2
-    sat = overlapping_pairs(P, Q)
-    area = pair_areas(P, Q)
-    assert np.array_equal(sat, area > 1e-12)
-    assert 50 < sat.sum() < 400  # both outcomes occur
 
 
 def test_untangle_only_moves_free_rows_and_leaves_no_flip():
@@ -75,7 +55,7 @@ def test_polish_lowers_the_energy_without_flipping():
 
 
 def test_diagnosis_names_every_kind_of_problem():
-    V, F, UV, FUV, a, b = _two_islands()
+    V, F, UV, FUV, a, b = two_islands()
     assert diagnose_layout(V, F, UV, FUV).ok
     kinds = {}
     uv, _ = damage.mirror_island(UV, FUV, a)
@@ -142,7 +122,7 @@ def test_local_fold_is_repaired_locally():
 
 
 def test_mirrored_island_is_reflected_not_resolved():
-    V, F, UV, FUV, a, b = _two_islands()
+    V, F, UV, FUV, a, b = two_islands()
     uv, _ = damage.mirror_island(UV, FUV, a)
     res = repair_layout(V, F, uv, FUV)
     assert res.after.validation["valid"]
@@ -153,7 +133,7 @@ def test_mirrored_island_is_reflected_not_resolved():
 
 
 def test_overlapping_islands_move_only_one_without_scaling():
-    V, F, UV, FUV, a, b = _two_islands()
+    V, F, UV, FUV, a, b = two_islands()
     uv, _ = damage.overlap_islands(UV, FUV, a, b)
     res = repair_layout(V, F, uv, FUV, padding=2.0, resolution=1024)
     v = res.after.validation
@@ -170,14 +150,14 @@ def test_overlapping_islands_move_only_one_without_scaling():
 
 
 def test_island_outside_the_square_is_moved_in():
-    V, F, UV, FUV, a, b = _two_islands()
+    V, F, UV, FUV, a, b = two_islands()
     uv, _ = damage.push_out(UV, FUV, b, shift=(0.5, 0.0))
     res = repair_layout(V, F, uv, FUV)
     assert res.after.validation["valid"] and res.after.validation["uv_in_unit_square"]
 
 
 def test_nan_and_missing_uvs_get_new_charts_and_the_rest_is_untouched():
-    V, F, UV, FUV, a, b = _two_islands()
+    V, F, UV, FUV, a, b = two_islands()
     uv = UV.copy()
     rows = np.unique(FUV[a[:4]])
     uv[rows[0]] = np.nan
@@ -191,7 +171,7 @@ def test_nan_and_missing_uvs_get_new_charts_and_the_rest_is_untouched():
 
 
 def test_a_valid_layout_comes_back_unchanged():
-    V, F, UV, FUV, a, b = _two_islands()
+    V, F, UV, FUV, a, b = two_islands()
     res = repair_layout(V, F, UV, FUV)
     assert res.unchanged and res.UV.tobytes() == UV.tobytes() and "nothing to repair" in res.summary()
 
@@ -245,68 +225,3 @@ def test_patch_obj_keeps_every_other_line(tmp_path):
     assert np.array_equal(F3, F) and np.array_equal(FUV3, FUV2) and np.array_equal(UV3, UV2)
 
 
-def _write_layout(path, V, F, UV, FUV):
-    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in V] + [f"vt {u:.17g} {v:.17g}" for u, v in UV]
-    lines += [f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}" for (a, b, c), (ta, tb, tc) in zip(F, FUV)]
-    path.write_text("\n".join(lines) + "\n")
-
-
-def test_cli_check_uv_and_repair(tmp_path, capsys):
-    import json
-
-    from neuraluv.cli import main
-
-    V, F, UV, FUV, a, b = _two_islands()
-    good = tmp_path / "good.obj"
-    _write_layout(good, V, F, UV, FUV)
-    assert main(["check", "--uv", str(good)]) == 0
-    assert "nothing to repair" in capsys.readouterr().out
-    assert main(["repair", str(good), "-o", str(tmp_path / "same.obj"), "--quiet"]) == 0
-    assert (tmp_path / "same.obj").read_bytes() == good.read_bytes()
-    assert "nothing to repair" in capsys.readouterr().out
-    uv, _ = damage.overlap_islands(UV, FUV, a, b)
-    uv, _ = damage.mirror_island(uv, FUV, b)
-    broken = tmp_path / "broken.obj"
-    _write_layout(broken, V, F, uv, FUV)
-    assert main(["check", "--uv", str(broken), "--json"]) == 0
-    rep = json.loads(capsys.readouterr().out)
-    assert {"mirrored_island", "island_overlap"} <= {p["kind"] for p in rep["problems"]}
-    code = main(["repair", str(broken), "-o", str(tmp_path / "fixed.obj"), "--report", str(tmp_path / "r.json"),
-                 "--figure", str(tmp_path / "r.png"), "--quiet"])
-    assert code == 0, capsys.readouterr()
-    r = json.loads((tmp_path / "r.json").read_text())
-    assert r["readback"]["valid"] and r["after"]["ok"]
-    assert (tmp_path / "r.png").stat().st_size > 1000
-    d = diagnose_layout(*read_obj(tmp_path / "fixed.obj"))
-    assert d.ok, [p["kind"] for p in d.problems]
-
-
-def test_bench_repair_quick(tmp_path):
-    from neuraluv_paper.bench.repair import bench
-
-    out = bench(output=tmp_path, quick=True, preset="fast", mouette=False, show_progress=False)
-    gen = [r for r in out.rows if r["case"] != "as produced"]
-    assert gen and all(r["fixed"] for r in gen), [(r["case"], r["fixed"]) for r in gen]
-    fold = [r for r in gen if r["case"] == "local fold"][0]
-    # the glove is small (882 faces): judge the repaired region against the damaged one, not the whole island
-    changed = round((1 - fold["bit_identical_island"]) * fold["faces"])
-    assert changed <= 4 * fold["damage"]["faces"], (changed, fold["damage"])
-    assert fold["esd_ratio"] <= 1.05
-    # the faces kept as supplied are measured too: unchanged bits give the undamaged E_SD where the damage did not reach
-    assert all(r["esd_kept_repaired"] is not None for r in gen if r["bit_identical_island"] > 0)
-    assert (tmp_path / "repair.md").exists() and (tmp_path / "repair.csv").exists()
-
-
-def test_bench_repair_explains_a_rise_in_esd():
-    from neuraluv_paper.bench.repair import _markdown
-
-    row = {"layout": "atlas", "case": "vertex noise", "faces": 10, "flips_before": 2, "overlaps_before": 0,
-           "fixed": True, "flips_after": 0, "overlaps_after": 0, "bit_identical_island": 0.9, "bit_identical_all": 0.9,
-           "esd_undamaged": 4.0, "esd_repaired": 40.0, "esd_ratio": 10.0, "esd_kept_undamaged": 4.0,
-           "esd_kept_repaired": 44.0, "time_s": 0.1, "steps": "untangle+polish", "scaled": False, "repacked": False}
-    md = _markdown([row], [])
-    assert "atlas vertex noise ×10.000; over the faces kept as supplied (90.0% of the island) 4.000 → 44.000" in md
-    assert "above ×1.05" not in _markdown([{**row, "esd_repaired": 4.1, "esd_ratio": 1.025}], [])
-    # a case mouette does not take reads "—"; without mouette the column says so
-    assert "| — |" in md and "unavailable" not in md
-    assert "| not installed |" in _markdown([row], [], mouette_ran=False)

@@ -112,9 +112,9 @@ def test_seeded_runs_are_reproducible():
 
 def test_start_relax_only_when_crushed():
     """The SLIM un-crushing applies only below relax_below, stops once min det J >= eps, keeps validity."""
+    from neuraluv.meshfix import normalize_unit_box
     from neuraluv.metrics import face_dets
     from neuraluv.relax import slim_relax_until
-    from neuraluv.meshfix import normalize_unit_box
     from neuraluv.tutte import tutte
 
     V, F = datasets.glove()

@@ -3,9 +3,8 @@ import numpy as np
 import pytest
 import torch
 
-from neuraluv.solver.energy import alpha_schedule, barrier, inv_det_sq, objective, stable_esd
 from neuraluv.jacobian import local_frames
-from neuraluv.solver.energy import jacobians_torch
+from neuraluv.solver.energy import alpha_schedule, barrier, inv_det_sq, jacobians_torch, objective, stable_esd
 
 EPS_J = 1e-4
 
@@ -81,8 +80,8 @@ def _random_chart_map(seed=0, fold=False):
 @pytest.mark.parametrize("fold", [False, True])
 def test_objective_esd_matches_distortion_metrics_on_many_faces(fold):
     """One E_SD: the torch objective's true E_SD equals the reporting metric, face by face and in total."""
-    from neuraluv.metrics import distortion_metrics, face_metrics
     from neuraluv.jacobian import jacobians
+    from neuraluv.metrics import distortion_metrics, face_metrics
 
     V, F, UV = _random_chart_map(1, fold)
     dCi, A = local_frames(V, F)

@@ -6,7 +6,6 @@ from neuraluv import datasets
 from neuraluv.meshfix import face_areas
 from neuraluv.spectral import FEATURE_STD, chart_features, fix_signs, laplacian, lbo_eigenfunctions
 
-
 CHARTS = ["disk", "cap", "saddle", "bumpy", "glove"]
 
 

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from neuraluv import datasets
-from neuraluv.metrics import distortion_metrics
 from neuraluv.meshfix import face_areas
+from neuraluv.metrics import distortion_metrics
 from neuraluv.spectral import laplacian
 from neuraluv.tutte import boundary_loop, tutte
 

@@ -66,7 +66,7 @@ def main(argv=None):
         args = build_parser(argv).parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a one-line usage error
         return exc.code if isinstance(exc.code, int) else EXIT_USER
-    from neuraluv.errors import NeuralUVError
+    from neuraluv.errors import NeuralUVError, missing_extra
 
     previous = None
     if threading.current_thread() is threading.main_thread():
@@ -75,6 +75,11 @@ def main(argv=None):
         return args.func(args)
     except NeuralUVError as exc:
         print(f"neuraluv: error: {exc}", file=sys.stderr)
+        return EXIT_USER
+    except ModuleNotFoundError as exc:  # an optional extra that is not installed
+        if not exc.name or exc.name.split(".")[0] in ("neuraluv", "neuraluv_paper"):
+            raise
+        print(f"neuraluv: error: {missing_extra(exc)}", file=sys.stderr)
         return EXIT_USER
     except _Terminated:
         print("neuraluv: terminated; no partial output was written", file=sys.stderr)

@@ -17,15 +17,14 @@ Python API: :func:`bench`; command line: ``neuraluv bench ablation``.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from neuraluv_paper.bench import paper_values as PV
-from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, load_meshes, neural_options
-from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct,
-                     fraction, grey, machine_info, markdown_table, plain, progress, with_paper, write_csv,
-                     write_markdown)
+from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, iteration_override, load_meshes, neural_options
+from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, command_line, findings_markdown,
+                                             fmt_num, fmt_pct, fraction, grey, markdown_table, print_report, progress,
+                                             start_run, with_paper, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "VARIANTS", "LABELS", "neural_attempt_metrics"]
 
@@ -99,8 +98,6 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     """
     from neuraluv_paper.baselines import run_baseline
 
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     variants = list(variants or VARIANTS)
     bad = [v for v in variants if v not in VARIANTS]
@@ -113,8 +110,7 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     seeds = [int(x) for x in (seeds if seeds else [seed])]
     base = neural_options(preset, quick, seeds[0], device, **overrides)
     loaded, missing = load_meshes(names, quick)
-    log = RowLog(out / "rows.jsonl", resume=resume)
-    machine = machine_info(device)
+    out, machine, log = start_run(output, resume=resume, device=device)
 
     jobs = [(v, n, V, F, sd) for sd in seeds for v in variants for n, V, F in loaded]
     rows = []
@@ -275,9 +271,7 @@ def add_arguments(p):
 
 
 def run(args):
-    ov = {"iterations": args.iterations} if getattr(args, "iterations", None) else {}
+    ov = iteration_override(args)
     res = bench(args.meshes, args.variants, preset=args.preset, quick=args.quick, output=args.output,
                 resume=args.resume, seed=args.seed, seeds=args.seeds, device=args.device, show_progress=not args.quiet, args=args, **ov)
-    print(plain(res.markdown))
-    print("wrote " + ", ".join(str(p) for p in res.files))
-    return 0
+    return print_report(res)

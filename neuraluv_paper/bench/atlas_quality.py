@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, fmt_pct, machine_info, markdown_table,
-                                       plain, write_csv, write_markdown)
+                                             print_report, write_csv, write_markdown)
 
 __all__ = ["add_arguments", "bench", "run", "seam_length", "xatlas_atlas"]
 
@@ -175,10 +175,7 @@ def bench(args):
 
 def run(args):
     """``neuraluv bench atlas-quality``: print the table, list the files, exit 0."""
-    res = bench(args)
-    print(plain(res.markdown))
-    print("wrote " + ", ".join(str(p) for p in res.files))
-    return 0
+    return print_report(bench(args))
 
 
 def _pct(x):

@@ -28,8 +28,8 @@ import numpy as np
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench.common import MESH_LABELS, load_meshes
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, fmt_num, fmt_pct, fmt_time,
-                                       fraction, machine_info, markdown_table, plain, progress, with_paper, write_csv,
-                                       write_markdown)
+                                             fraction, machine_info, markdown_table, print_report, progress, with_paper,
+                                             write_csv, write_markdown)
 from neuraluv.layout.rigid import rigid_fit
 
 __all__ = ["bff_agreement", "optcuts_sample", "map_distance", "add_arguments", "run", "BFF_VARIANTS"]
@@ -289,7 +289,4 @@ def run(args):
             raise NeuralUVError("OptCuts binary not found: run `make baselines` (or set NEURALUV_OPTCUTS)")
         outs.append(optcuts_sample(args.optcuts_sample, output=args.output, resume=args.resume,
                                    timeout=args.optcuts_timeout, show_progress=not args.quiet, args=args))
-    for res in outs:
-        print(plain(res.markdown))
-        print("wrote " + ", ".join(str(p) for p in res.files))
-    return 0
+    return print_report(*outs)

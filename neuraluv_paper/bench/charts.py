@@ -34,9 +34,10 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv_paper.bench import paper_values as PV
-from neuraluv_paper.bench.common import LABELS, neural_options
-from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_time, fraction,
-                     machine_info, markdown_table, plain, progress, save_figure, write_csv, write_markdown)
+from neuraluv_paper.bench.common import LABELS, iteration_override, neural_options
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num,
+                                             fmt_time, fraction, markdown_table, print_report, progress, save_figure,
+                                             start_run, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "STRATA", "SMALL_STRATA", "FIRST", "stratum", "xatlas_charts", "chart_pool",
            "select_charts", "subdivided_charts", "chart_arrays", "CAPS", "PYVISTA_MESHES", "default_sources"]
@@ -327,8 +328,6 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
     """
     from neuraluv_paper.baselines import run_baseline
 
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
     if quick:
         overrides = {"iterations": 30, "retries": 0, **overrides}
     sources = list(sources or (["sphere", "pv:ant"] if quick else default_sources(large=True)))
@@ -336,8 +335,7 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
     first = (3 if quick else FIRST) if first is None else first
     strata = STRATA if not quick else [(4, 100, "tens"), (100, 1000, "hundreds")]
     nkw = neural_options(preset, quick, seed, device, **overrides)
-    log = RowLog(out / "rows.jsonl", resume=resume)
-    machine = machine_info(device)
+    out, machine, log = start_run(output, resume=resume, device=device)
 
     pool, failed = chart_pool(sources, out / "cache", show_progress)
     first_set = pool[:first]
@@ -591,12 +589,10 @@ def add_arguments(p):
 
 
 def run(args):
-    ov = {"iterations": args.iterations} if getattr(args, "iterations", None) else {}
+    ov = iteration_override(args)
     sources = args.sources or args.meshes
     res = bench(sources, n_charts=args.n_charts, preset=args.preset, quick=args.quick, output=args.output,
                 resume=args.resume, seed=args.seed, device=args.device, show_progress=not args.quiet,
                 baselines=tuple(args.baselines), max_large=args.max_large, first=args.first, subdivide=args.subdivide,
                 neural=args.neural, k0=args.k0, from_log=args.from_log, args=args, **ov)
-    print(plain(res.markdown))
-    print("wrote " + ", ".join(str(p) for p in res.files))
-    return 0
+    return print_report(res)

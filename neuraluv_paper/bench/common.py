@@ -7,7 +7,7 @@ from neuraluv import datasets
 from neuraluv.errors import NeuralUVError
 
 __all__ = ["METHODS", "LABELS", "RECUT", "DEFAULT_MESHES", "QUICK_MESHES", "QUICK_SIZES", "QUICK_METHODS", "MESH_LABELS",
-           "load_meshes", "neural_options", "result_row"]
+           "load_meshes", "neural_options", "result_row", "iteration_override"]
 
 #: Table 2's methods, in the paper's order (OptCuts last: it recuts), then the external tools the
 #: paper names beside them: the BFF v1.6 binary next to our BFF, and Blender's unwrappers (optional
@@ -59,6 +59,19 @@ def neural_options(preset, quick, seed=0, device="auto", **overrides):
     preset = preset or ("test" if quick else "fast")
     kw = {"preset": preset, "seed": int(seed), "device": device, **overrides}
     return kw
+
+
+def iteration_override(args):
+    """``{"iterations": N}`` when the command line set ``--iterations``, else ``{}``.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> iteration_override(SimpleNamespace(iterations=200)), iteration_override(SimpleNamespace())
+    ({'iterations': 200}, {})
+    """
+    n = getattr(args, "iterations", None)
+    return {"iterations": n} if n else {}
 
 
 def result_row(res):

@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv_paper.bench import paper_values as PV
-from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, METHODS, QUICK_MESHES, QUICK_METHODS, RECUT,
-                                   load_meshes, neural_options, result_row)
-from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, RowLog, bold, findings_markdown, fmt_num, fmt_pct,
-                     fmt_time, grey, machine_info, markdown_table, progress, with_paper, write_csv,
-                     write_markdown, command_line, save_figure)
+from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, METHODS, QUICK_MESHES, QUICK_METHODS,
+                                         RECUT, iteration_override, load_meshes, neural_options, result_row)
+from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, bold, command_line, findings_markdown,
+                                             fmt_num, fmt_pct, fmt_time, grey, markdown_table, progress, save_figure,
+                                             print_report, start_run, with_paper, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run"]
 
@@ -77,17 +77,14 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     -------
     BenchOutput
     """
-    from neuraluv_paper.baselines import run_baseline
     from neuraluv.topology import topology_scan
+    from neuraluv_paper.baselines import run_baseline
 
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (QUICK_METHODS if quick else METHODS))
     nkw = neural_options(preset, quick, seed, device, **overrides)
     loaded, missing = load_meshes(names, quick)
-    log = RowLog(out / "rows.jsonl", resume=resume)
-    machine = machine_info(device)
+    out, machine, log = start_run(output, resume=resume, device=device)
 
     jobs = []
     for name, V, F in loaded:
@@ -418,25 +415,13 @@ def add_arguments(p):
 
 def run(args):
     from neuraluv.errors import NeuralUVError
+    from neuraluv_paper.baselines import METHODS as ALL
 
-    try:
-        from neuraluv_paper.baselines import METHODS as ALL
-    except ImportError as exc:  # pragma: no cover
-        raise NeuralUVError(f"neuraluv_paper.baselines is not available: {exc}") from None
     bad = [m for m in (args.methods or []) if m not in ALL]
     if bad:
         raise NeuralUVError(f"unknown method(s) {', '.join(bad)}; choose from {', '.join(ALL)}")
-    ov = {"iterations": args.iterations} if getattr(args, "iterations", None) else {}
+    ov = iteration_override(args)
     res = bench(args.meshes, args.methods, preset=args.preset, quick=args.quick, output=args.output,
                 resume=args.resume, seed=args.seed, device=args.device, show_progress=not args.quiet,
                 figures=not args.no_figures, args=args, **ov)
-    _print(res)
-    return 0
-
-
-def _print(res):
-    from neuraluv_paper.bench.provenance import plain
-
-    text = plain(res.markdown)
-    print(text)
-    print("wrote " + ", ".join(str(p) for p in res.files))
+    return print_report(res)

@@ -11,12 +11,12 @@ Python API: :func:`bench`; command line: ``neuraluv bench failure-modes``.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 from neuraluv_paper.bench import paper_values as PV
-from neuraluv_paper.bench.common import DEFAULT_MESHES, LABELS, MESH_LABELS, QUICK_MESHES, load_meshes, neural_options, result_row
-from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, machine_info,
-                     markdown_table, plain, progress, with_paper, write_csv, write_markdown)
+from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, QUICK_MESHES, iteration_override,
+                                         load_meshes, neural_options, result_row)
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
+                                             markdown_table, print_report, progress, start_run, with_paper, write_csv,
+                                             write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "METHODS", "PAPER_METHODS", "cell"]
 
@@ -76,17 +76,14 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     -------
     BenchOutput
     """
-    from neuraluv_paper.baselines import run_baseline
     from neuraluv.topology import topology_scan
+    from neuraluv_paper.baselines import run_baseline
 
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (PAPER_METHODS if quick else METHODS)) + (["neural"] if neural else [])
     nkw = neural_options(preset, quick, seed, device, **overrides)
     loaded, missing = load_meshes(names, quick)
-    log = RowLog(out / "rows.jsonl", resume=resume)
-    machine = machine_info(device)
+    out, machine, log = start_run(output, resume=resume, device=device)
 
     rows, topo = [], {}
     jobs = [(n, V, F, m) for n, V, F in loaded for m in methods]
@@ -176,10 +173,8 @@ def add_arguments(p):
 
 
 def run(args):
-    ov = {"iterations": args.iterations} if getattr(args, "iterations", None) else {}
+    ov = iteration_override(args)
     res = bench(args.meshes, args.methods, preset=args.preset, quick=args.quick, output=args.output,
                 resume=args.resume, seed=args.seed, device=args.device, show_progress=not args.quiet,
                 neural=not args.no_neural, args=args, **ov)
-    print(plain(res.markdown))
-    print("wrote " + ", ".join(str(p) for p in res.files))
-    return 0
+    return print_report(res)

@@ -36,9 +36,9 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv_paper.bench import paper_values as PV
-from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num,
-                                       fmt_pct, fmt_time, fraction, machine_info, markdown_table, plain, progress,
-                                       with_paper, write_csv, write_markdown)
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
+                                             fmt_time, fraction, markdown_table, print_report, progress, start_run,
+                                             with_paper, write_csv, write_markdown)
 
 __all__ = ["bench", "ours_row", "blender_row", "add_arguments", "run", "BLENDER"]
 
@@ -114,10 +114,10 @@ def chart_mesh_of(res):
 def blender_row(V, F, method):
     """Blender's unwrap of one raw mesh, counted on its loop UVs (a flat dict; ``status`` ``unavailable``
     without ``bpy``)."""
-    from neuraluv_paper.baselines import Unavailable
-    from neuraluv_paper.baselines.external import blender_map
     from neuraluv.meshfix import face_areas
     from neuraluv.metrics import corner_jacobians, face_metrics
+    from neuraluv_paper.baselines import Unavailable
+    from neuraluv_paper.baselines.external import blender_map
 
     F = np.asarray(F, np.int64)
     t0 = time.perf_counter()
@@ -178,11 +178,8 @@ def bench(n_assets=25, meshes=None, *, preset=None, quick=False, output="results
     BenchOutput
         ``extra``: ``{"coverage": [...], "blender": [...], "sweep": summary or None}``.
     """
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
     preset = preset or ("test" if quick else "fast")
-    machine = machine_info(device)
-    log = RowLog(out / "rows.jsonl", resume=resume)
+    out, machine, log = start_run(output, resume=resume, device=device)
     assets = _assets(n_assets, meshes, quick)
     rows = []
     cache = out / "cache"
@@ -367,6 +364,4 @@ def run(args):
     res = bench(n, args.meshes, preset=args.preset, quick=args.quick, output=args.output, resume=args.resume,
                 sweep_assets=min(args.sweep, 3) if args.quick and args.sweep else args.sweep, workers=args.workers,
                 device=args.device, threads=args.threads or 1, show_progress=not args.quiet, args=args)
-    print(plain(res.markdown))
-    print("wrote " + ", ".join(str(p) for p in res.files))
-    return 0
+    return print_report(res)

@@ -20,8 +20,9 @@ import numpy as np
 
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, QUICK_MESHES, load_meshes, neural_options
-from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num, fmt_pct, fmt_time,
-                     fraction, machine_info, markdown_table, plain, progress, with_paper, save_figure, write_csv, write_markdown)
+from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
+                                             fmt_time, fraction, markdown_table, print_report, progress, save_figure,
+                                             start_run, with_paper, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "closest_charts", "BUDGETS", "XATLAS_TARGETS"]
 
@@ -98,14 +99,11 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
     """
     from neuraluv_paper.baselines import run_baseline
 
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
     budgets = sorted(budgets or (QUICK_BUDGETS if quick else BUDGETS))
     preset = preset or ("test" if quick else "paper")
     nkw = neural_options(preset, quick, seed, device, **{"early_stop": False, **overrides})
     nkw.pop("iterations", None)
-    machine = machine_info(device)
-    log = RowLog(out / "rows.jsonl", resume=resume)
+    out, machine, log = start_run(output, resume=resume, device=device)
     groups = []
     missing = []
     if "compact" in sets:
@@ -235,6 +233,4 @@ def run(args):
     res = bench(args.meshes, args.budgets, sets=tuple(args.sets), preset=args.preset, quick=args.quick,
                 output=args.output, resume=args.resume, seed=args.seed, device=args.device,
                 show_progress=not args.quiet, args=args)
-    print(plain(res.markdown))
-    print("wrote " + ", ".join(str(p) for p in res.files))
-    return 0
+    return print_report(res)

@@ -25,7 +25,7 @@ from neuraluv.io import atomic_write, jsonable, write_csv
 __all__ = [
     "fmt_num", "fmt_pct", "fmt_time", "grey", "bold", "with_paper", "fraction", "GREY_NOTE", "PAPER_NOTE",
     "machine_info", "machine_line", "git_commit", "command_line", "markdown_table", "write_csv",
-    "findings_markdown", "write_findings", "VERDICTS", "write_markdown", "RowLog", "progress", "BenchOutput", "is_num", "finite", "save_figure", "plain",
+    "findings_markdown", "write_findings", "VERDICTS", "write_markdown", "RowLog", "start_run", "print_report", "progress", "BenchOutput", "is_num", "finite", "save_figure", "plain",
 ]
 
 #: Footnote explaining the grey marker.
@@ -409,6 +409,33 @@ class RowLog:
             self.skipped += 1
             return self.get(key)
         return self.add(key, fn())
+
+
+def start_run(output, *, resume=False, device="auto"):
+    """The start every table runner shares: its output folder (created), the machine, the resumable row log.
+
+    Returns
+    -------
+    out : Path
+    machine : dict (:func:`machine_info`)
+    log : :class:`RowLog` of ``out / "rows.jsonl"`` (emptied unless ``resume``)
+    """
+    out = Path(output)
+    out.mkdir(parents=True, exist_ok=True)
+    return out, machine_info(device), RowLog(out / "rows.jsonl", resume=resume)
+
+
+def print_report(*results):
+    """The end every runner shares: each :class:`BenchOutput`'s report as plain text and the files it wrote.
+
+    Returns
+    -------
+    int, the exit status 0
+    """
+    for res in results:
+        print(plain(res.markdown))
+        print("wrote " + ", ".join(str(p) for p in res.files))
+    return 0
 
 
 def progress(iterable, *, total=None, desc=None, disable=False):

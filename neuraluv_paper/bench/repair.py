@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table, save_figure,
-                                       write_csv, write_markdown)
+from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table,
+                                             save_figure, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run", "mouette_untangle"]
 

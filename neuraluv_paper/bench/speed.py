@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv_paper.bench import paper_values as PV
-from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table, save_figure,
-                                       write_csv, write_markdown)
+from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table,
+                                             save_figure, write_csv, write_markdown)
 
 __all__ = ["bench", "pareto", "atlas_timing", "add_arguments", "run", "speed_charts", "grown_disk", "network_floor",
            "peak_rss_mb"]

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from neuraluv import datasets
+from neuraluv.metrics import distortion_metrics
 from neuraluv_paper.baselines import bff_binary, optcuts_binary, run_baseline
 from neuraluv_paper.baselines.external import built_binary
-from neuraluv.metrics import distortion_metrics
 
 NO_BFF = "bff-command-line not built (run `make baselines`, or set NEURALUV_BFF)"
 NO_OPTCUTS = "OptCuts_bin not built (run `make baselines`, or set NEURALUV_OPTCUTS)"

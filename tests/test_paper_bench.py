@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 import torch
 
+from neuraluv import datasets
+from neuraluv.cli import main
+from neuraluv.datasets import sphere
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench import provenance as tables
-from neuraluv.cli import main
 
 
 @pytest.fixture(autouse=True)
@@ -112,7 +114,6 @@ def test_resume_recomputes_unavailable_rows(tmp_path, monkeypatch):
 
 def test_compact_greys_flipped_distortion_and_prints_paper_values(tmp_path, monkeypatch):
     """A folding method's distortion is greyed; a paper mesh gets the paper's numbers beside ours."""
-    from neuraluv import datasets
     from neuraluv_paper.bench import compact as bench_compact
 
     def fake_load(names, quick=False):  # the curled glove makes ARAP fold; call it "camel"
@@ -284,12 +285,63 @@ def test_speed_quick_writes_the_table_with_floor_split_and_slim(tmp_path):
 
 
 def test_grown_disk_is_a_disk_of_about_the_asked_size():
-    from neuraluv_paper.bench.speed import grown_disk
-    from neuraluv.datasets import sphere
     from neuraluv.topology import is_disk_like, submesh
+    from neuraluv_paper.bench.speed import grown_disk
 
     V, F = sphere(4)
     for n in (100, 1500):
         f = grown_disk(V, F, n)
         vi, Fl = submesh(F, f)
         assert is_disk_like(V[vi], Fl)[0] and n <= len(f) < 3 * n
+
+
+def test_bench_atlas_quality_cli_writes_the_table(tmp_path, capsys):
+    from neuraluv.cli import main
+
+    rc = main(["bench", "atlas-quality", "--quick", "--meshes", "glove", "--quiet", "-o", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "| glove |" in out and "ours + tight" in out
+    md = (tmp_path / "atlas_quality.md").read_text()
+    assert "Acceptance" in md and "xatlas (own charts + packer)" in md
+
+
+def test_bench_atlas_quality_generated_from_picks_the_seeds():
+    from argparse import Namespace
+
+    from neuraluv.datasets.generated import generated_asset
+    from neuraluv_paper.bench.atlas_quality import _assets
+
+    got = _assets(Namespace(meshes=["glove"], quick=False, generated=2, generated_from=7))
+    assert [a[0] for a in got] == ["glove", "generated-7", "generated-8"]
+    assert np.array_equal(got[2][2], generated_asset(8)[1])
+
+
+def test_bench_repair_quick(tmp_path):
+    from neuraluv_paper.bench.repair import bench
+
+    out = bench(output=tmp_path, quick=True, preset="fast", mouette=False, show_progress=False)
+    gen = [r for r in out.rows if r["case"] != "as produced"]
+    assert gen and all(r["fixed"] for r in gen), [(r["case"], r["fixed"]) for r in gen]
+    fold = [r for r in gen if r["case"] == "local fold"][0]
+    # the glove is small (882 faces): judge the repaired region against the damaged one, not the whole island
+    changed = round((1 - fold["bit_identical_island"]) * fold["faces"])
+    assert changed <= 4 * fold["damage"]["faces"], (changed, fold["damage"])
+    assert fold["esd_ratio"] <= 1.05
+    # the faces kept as supplied are measured too: unchanged bits give the undamaged E_SD where the damage did not reach
+    assert all(r["esd_kept_repaired"] is not None for r in gen if r["bit_identical_island"] > 0)
+    assert (tmp_path / "repair.md").exists() and (tmp_path / "repair.csv").exists()
+
+
+def test_bench_repair_explains_a_rise_in_esd():
+    from neuraluv_paper.bench.repair import _markdown
+
+    row = {"layout": "atlas", "case": "vertex noise", "faces": 10, "flips_before": 2, "overlaps_before": 0,
+           "fixed": True, "flips_after": 0, "overlaps_after": 0, "bit_identical_island": 0.9, "bit_identical_all": 0.9,
+           "esd_undamaged": 4.0, "esd_repaired": 40.0, "esd_ratio": 10.0, "esd_kept_undamaged": 4.0,
+           "esd_kept_repaired": 44.0, "time_s": 0.1, "steps": "untangle+polish", "scaled": False, "repacked": False}
+    md = _markdown([row], [])
+    assert "atlas vertex noise ×10.000; over the faces kept as supplied (90.0% of the island) 4.000 → 44.000" in md
+    assert "above ×1.05" not in _markdown([{**row, "esd_repaired": 4.1, "esd_ratio": 1.025}], [])
+    # a case mouette does not take reads "—"; without mouette the column says so
+    assert "| — |" in md and "unavailable" not in md
+    assert "| not installed |" in _markdown([row], [], mouette_ran=False)

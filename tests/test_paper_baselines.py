@@ -6,12 +6,13 @@ import textwrap
 import numpy as np
 import pytest
 
-from conftest import real_mesh
 from neuraluv import datasets
-from neuraluv_paper.baselines import METHODS, BaselineResult, blender_python, run_baseline
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver import ChartResult
 from neuraluv.tutte import tutte
+from neuraluv_paper.baselines import METHODS, BaselineResult, blender_python, run_baseline
+
+from conftest import real_mesh
 
 LIBIGL = ["harmonic", "lscm", "arap", "slim-20"]
 

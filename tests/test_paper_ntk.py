@@ -7,19 +7,10 @@ import torch
 from torch.nn.utils import parameters_to_vector, vector_to_parameters
 
 from neuraluv import datasets
-from neuraluv_paper.ntk import (
-    TrajectoryRecorder,
-    _edge_graph,
-    alignment_curve,
-    farthest_point_sampling,
-    lbo_basis,
-    make_probe,
-    ntk_gram,
-    subspace_alignment,
-    top_eigenspace,
-)
-from neuraluv.solver.siren import Siren
 from neuraluv.solver import get_config, solve_chart
+from neuraluv.solver.siren import Siren
+from neuraluv_paper.ntk import (TrajectoryRecorder, _edge_graph, alignment_curve, farthest_point_sampling, lbo_basis,
+                                make_probe, ntk_gram, subspace_alignment, top_eigenspace)
 
 
 def _orth(rng, s, r):

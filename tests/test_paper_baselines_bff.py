@@ -3,11 +3,12 @@ import numpy as np
 import pytest
 
 from neuraluv import datasets
-from neuraluv_paper.baselines.libigl import lscm
 from neuraluv.errors import TopologyError
-from neuraluv_paper.baselines.bff import angle_defects, best_fit_curve, bff, dirichlet_to_neumann, oriented_boundary_loop
 from neuraluv.metrics import distortion_metrics
 from neuraluv.spectral import cotangent_laplacian
+from neuraluv_paper.baselines.bff import (angle_defects, best_fit_curve, bff, dirichlet_to_neumann,
+                                          oriented_boundary_loop)
+from neuraluv_paper.baselines.libigl import lscm
 
 
 def _procrustes_residual(X, Y):

@@ -1,0 +1,124 @@
+"""Writing files atomically, and the JSON / CSV the reports are made of.
+
+A file is first written next to its destination and then renamed, so an
+interrupted run never leaves a half-written output behind.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["atomic_write", "jsonable", "write_json", "write_csv"]
+
+
+@contextmanager
+def atomic_write(path, mode="w"):
+    """Open a temporary file that replaces ``path`` only if the block succeeds.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> with atomic_write(os.path.join(d, "x.txt")) as fh:
+    ...     _ = fh.write("hello")
+    >>> open(os.path.join(d, "x.txt")).read()
+    'hello'
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, mode) as fh:
+            yield fh
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the usual file mode
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def jsonable(obj):
+    """Convert numpy scalars and non-finite floats for ``json.dump``.
+
+    Non-finite numbers become strings (``"inf"``, ``"-inf"``, ``"nan"``) so a
+    report stays valid JSON.
+
+    Examples
+    --------
+    >>> jsonable({"a": np.float64(1.5), "b": [float("inf"), np.int64(2)]})
+    {'a': 1.5, 'b': ['inf', 2]}
+    """
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, (float, np.floating)):
+        f = float(obj)
+        return f if math.isfinite(f) else str(f)
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def write_json(path, obj):
+    """Write ``jsonable(obj)`` as indented JSON, atomically; returns the path."""
+    with atomic_write(path) as fh:
+        json.dump(jsonable(obj), fh, indent=2)
+    return Path(path)
+
+
+def _csv_value(v):
+    if isinstance(v, (float, np.floating)):
+        v = float(v)
+        return repr(v) if math.isfinite(v) else str(v)
+    if isinstance(v, (list, tuple, dict)):
+        return json.dumps(jsonable(v))
+    return "" if v is None else v
+
+
+def write_csv(path, rows, columns=None):
+    """Write a list of dicts as CSV, atomically (raw values, one column per key).
+
+    Parameters
+    ----------
+    path : str or path-like
+    rows : list of dict
+    columns : list of str, optional
+        Column order (default: keys in order of first appearance); other keys are dropped.
+
+    Returns
+    -------
+    path : Path
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> p = write_csv(os.path.join(tempfile.mkdtemp(), "t.csv"), [{"a": 1, "b": 0.5}, {"a": 2, "c": [1]}])
+    >>> open(p).read().splitlines()
+    ['a,b,c', '1,0.5,', '2,,[1]']
+    """
+    columns = columns or list(dict.fromkeys(k for r in rows for k in r))
+    with atomic_write(path) as fh:
+        w = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: _csv_value(r.get(k)) for k in columns})
+    return Path(path)
