@@ -2,7 +2,8 @@
 #   make demo       virtual env + install + unwrap the built-in default chart
 #   make test       virtual env + install + the whole test suite: unit tests and doctests,
 #                   every notebook once under nbval, the book built from those runs and checked
-#   make test-fast  unit tests and doctests only (about a minute)
+#   make test-fast  unit tests and doctests of the library, without the slow tier (no notebooks, no
+#                   benchmarks, no end-to-end atlases or CLI subprocesses): about a minute
 PY      ?= python3
 VENV    ?= .venv
 BIN     := $(VENV)/bin
@@ -39,7 +40,7 @@ test: install data
 	$(MAKE) book-check
 
 test-fast: install
-	$(BIN)/python -m pytest -q -x
+	$(BIN)/python -m pytest -q -x -m "not slow" tests neuraluv
 
 # Every notebook once (nbval); their outputs go to the book's execution cache
 # (notebooks/conftest.py), so the book build below does not run them again.

@@ -300,7 +300,7 @@ def atlas_input():
 def damaged_layout(atlas):
     """The atlas's layout with a local fold in its largest island and two overlapping islands."""
     from neuraluv.metrics import face_dets
-    from neuraluv.repair import damage
+    from neuraluv_paper import damage
     from neuraluv.repair.diagnose import layout_facts
 
     V, F, UV, FUV = atlas.V, atlas.F, np.asarray(atlas.UV, float), atlas.FUV

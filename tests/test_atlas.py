@@ -108,6 +108,7 @@ def test_route_chart_neural_on_a_disk():
     assert ch.metrics["flips"] == 0 and ch.solver["status"] == "neural"
 
 
+@pytest.mark.slow
 def test_atlas_closed_sphere_obj_readback(tmp_path):
     res = build_atlas(*sphere(2), **FAST)
     t = res.totals()
@@ -119,6 +120,7 @@ def test_atlas_closed_sphere_obj_readback(tmp_path):
     assert {"route", "reason", "metrics", "time"} <= set(rep["charts"][0])
 
 
+@pytest.mark.slow
 def test_atlas_generated_messy_glb_readback(tmp_path):
     V, F, info = generated_asset(2, res=16)  # soup, flips, slivers, fragments, non-manifold
     res = build_atlas(V, F, **FAST)
@@ -129,12 +131,14 @@ def test_atlas_generated_messy_glb_readback(tmp_path):
     _readback_ok(res, tmp_path / "gen.obj")
 
 
+@pytest.mark.slow
 def test_atlas_xatlas_packer(tmp_path):
     res = build_atlas(*sphere(1), packer="xatlas", **FAST)
     assert 0 < res.info["utilisation"] <= 1
     _readback_ok(res, tmp_path / "x.obj")
 
 
+@pytest.mark.slow
 def test_bad_inputs_are_refused_or_valid(tmp_path):
     from neuraluv.errors import NeuralUVError
 
@@ -147,6 +151,7 @@ def test_bad_inputs_are_refused_or_valid(tmp_path):
     _readback_ok(res, tmp_path / "huge.obj")
 
 
+@pytest.mark.slow
 def test_renders_route_figure(tmp_path):
     pytest.importorskip("pyvista")
     from neuraluv.atlas import save_renders
@@ -171,6 +176,7 @@ def test_slivers_are_removed_and_counted():
     assert info["sliver_faces"] == 0
 
 
+@pytest.mark.slow
 def test_repack_changes_only_the_placement(tmp_path):
     """Repacking (another packer, another padding) keeps every island's shape and its validity."""
     from neuraluv.atlas import repack
@@ -212,6 +218,7 @@ def test_exact_unfold_of_strips_is_an_isometry():
     assert res.route == "exact" and res.method == "exact-unfold" and res.metrics["esd"] == pytest.approx(4.0)
 
 
+@pytest.mark.slow
 def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
     """Routing bisects a failing candidate and solves the halves before falling back."""
     from neuraluv.atlas import routing
@@ -239,6 +246,7 @@ def test_merge_small_charts_keeps_disks_and_covers_once():
     assert np.array_equal(allf, np.arange(len(F)))
 
 
+@pytest.mark.slow
 def test_atlas_has_one_texel_density_and_udim_tiles_validate():
     V, F = sphere(2)
     res = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu")
@@ -254,6 +262,7 @@ def test_atlas_has_one_texel_density_and_udim_tiles_validate():
         build_atlas(V, F, "test", resolution=256, padding=2, device="cpu", packer="shelf", texel_density=dens)
 
 
+@pytest.mark.slow
 def test_stacking_identical_parts_shares_their_place_and_stays_valid():
     V, F, m = three_copies()
     plain = build_atlas(V, F, "test", resolution=256, padding=2, device="cpu")
@@ -270,6 +279,7 @@ def test_stacking_identical_parts_shares_their_place_and_stays_valid():
     assert val["overlapping_pairs"] == 3 * k and not val["valid"]
 
 
+@pytest.mark.slow
 def test_chart_with_a_hole_is_solved_whole_with_a_filler():
     from neuraluv.atlas.candidates import chart_is_disk, chart_mesh
     from neuraluv.atlas.routing import route_charts

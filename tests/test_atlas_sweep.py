@@ -23,6 +23,7 @@ def assets(tmp_path):
     return d
 
 
+@pytest.mark.slow
 def test_sweep_local_cluster_resume_and_tables(assets, tmp_path):
     out = tmp_path / "out"
     assert len(list_assets(assets)) == 4

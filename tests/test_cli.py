@@ -22,6 +22,7 @@ def run_cli(*args):
     return subprocess.run([sys.executable, "-m", "neuraluv.cli", *map(str, args)], capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow
 def test_cli_unwrap_roundtrip_multicomponent(tmp_path):
     V, F = datasets.several_components(4)
     write_mesh(tmp_path / "in.obj", V, F)
@@ -56,6 +57,7 @@ BAD = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(BAD))
 def test_cli_bad_input(tmp_path, name):
     if BAD[name] is not None:
@@ -70,12 +72,14 @@ def test_cli_bad_input(tmp_path, name):
     assert not any(p.name.startswith(".out.obj") for p in tmp_path.iterdir())  # no temp files left
 
 
+@pytest.mark.slow
 def test_cli_closed_mesh_says_why(tmp_path):
     write_mesh(tmp_path / "s.ply", *datasets.sphere(1))
     r = run_cli("unwrap", tmp_path / "s.ply", "-o", tmp_path / "o.obj", "--preset", "test", "--quiet")
     assert r.returncode == 2 and "closed surface" in r.stderr and "Traceback" not in r.stderr
 
 
+@pytest.mark.slow
 def test_cli_demo(tmp_path):
     r = run_cli("demo", "-o", tmp_path, "--preset", "test", "--quiet", "--mesh", "cap")
     assert r.returncode == 0, r.stderr
@@ -87,6 +91,7 @@ def test_cli_demo(tmp_path):
     assert img[..., :3].std() > 0.05  # a real picture, not a blank canvas
 
 
+@pytest.mark.slow
 def test_cli_atlas_stack_reads_back_valid(tmp_path, capsys):
     from neuraluv.cli import main
 
@@ -100,6 +105,7 @@ def test_cli_atlas_stack_reads_back_valid(tmp_path, capsys):
     assert rc == 0 and "islands stacked on identical ones" in out, out
 
 
+@pytest.mark.slow
 def test_atlas_cuts_a_long_island_validly_and_whole_islands_keeps_it(tmp_path, capsys):
     from neuraluv.cli import main
 
@@ -124,6 +130,7 @@ def test_atlas_cuts_a_long_island_validly_and_whole_islands_keeps_it(tmp_path, c
         assert rc == 0 and ("islands added by cutting large ones" in out) == said, out
 
 
+@pytest.mark.slow
 def test_cli_check_uv_and_repair(tmp_path, capsys):
     import json
 
@@ -154,6 +161,7 @@ def test_cli_check_uv_and_repair(tmp_path, capsys):
     assert d.ok, [p["kind"] for p in d.problems]
 
 
+@pytest.mark.slow
 def test_cli_check_atlas_and_errors(tmp_path, capsys):
     from neuraluv.cli import main
     from neuraluv.io import write_obj

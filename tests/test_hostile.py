@@ -163,6 +163,7 @@ def test_malformed_obj_lines_are_named(tmp_path, capfd, text, word):
     _one_line_error(code, err, word, "line")
 
 
+@pytest.mark.slow
 def test_tabs_comments_crlf_quads_are_read(tmp_path, capfd):
     V, F = datasets.disk(3)
     lines = [f"v\t{x}\t{y}\t{z}\t# vertex {i}" for i, (x, y, z) in enumerate(V)]
@@ -181,6 +182,7 @@ def test_tabs_comments_crlf_quads_are_read(tmp_path, capfd):
     assert len(F2) == 4
 
 
+@pytest.mark.slow
 def test_duplicate_faces_are_reported(tmp_path, capfd):
     V, F = datasets.disk(3)
     p = tmp_path / "double.obj"
@@ -210,6 +212,7 @@ def test_unwelded_stl_sphere_is_refused_quickly_with_a_pointer_to_atlas(tmp_path
     assert time.perf_counter() - t < 10
 
 
+@pytest.mark.slow
 def test_fragments_are_refused_by_unwrap_and_handled_by_atlas(tmp_path, capfd):
     rng = np.random.default_rng(0)
     tris = rng.random((200, 3, 3))
@@ -224,6 +227,7 @@ def test_fragments_are_refused_by_unwrap_and_handled_by_atlas(tmp_path, capfd):
     assert time.perf_counter() - t < 240  # a hang guard, not a speed target (that is `neuraluv bench speed --atlas`)
 
 
+@pytest.mark.slow
 def test_time_budget_bounds_the_solve(tmp_path, capfd):
     V, F = datasets.glove()
     p = tmp_path / "glove.obj"
@@ -252,6 +256,7 @@ def _wait_until_busy(proc, cpu_seconds, limit=60.0):
         time.sleep(0.1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_signals_stop_quickly_and_leave_no_output(tmp_path, sig, code):
     V, F = datasets.glove()
@@ -299,6 +304,7 @@ def test_garbage_files_are_one_line_errors(tmp_path, capfd, ext, kind):
     assert _snapshot(tmp_path) == before
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["nan", "inf", "points", "degenerate", "huge", "tiny", "bowtie", "nonmanifold"])
 def test_degenerate_geometry_is_refused_or_atlassed_validly(tmp_path, capfd, case):
     V, F = datasets.spherical_cap(3)
@@ -338,6 +344,7 @@ def test_degenerate_geometry_is_refused_or_atlassed_validly(tmp_path, capfd, cas
         assert not (tmp_path / "o.obj").exists()
 
 
+@pytest.mark.slow
 def test_repair_with_nan_and_malformed_vt(tmp_path, capfd):
     from neuraluv.tutte import tutte
 

@@ -11,6 +11,7 @@ from neuraluv.layout.pack import PACK_TRIALS, raster_pack, shelf_pack, tight_pac
 from conftest import l_shaped_islands, strip_island
 
 
+@pytest.mark.slow
 def test_tight_pack_keeps_padding_orientation_and_beats_shelf():
     uvs, fs = l_shaped_islands()
     for pad, res in ((4, 256), (2.5, 512)):
@@ -48,6 +49,7 @@ _SPLIT_F = [[0, 1, 4], [5, 6, 2], [5, 2, 4], [6, 12, 3], [6, 5, 11], [4, 1, 7], 
             [19, 15, 21], [23, 20, 24], [19, 21, 22], [21, 25, 22], [22, 25, 26]]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["raster", "xatlas"])
 def test_tight_pack_places_charts_with_degenerate_triangles_rigidly(method):
     uvs, fs = l_shaped_islands(8, seed=3)
@@ -75,6 +77,7 @@ def test_tight_pack_without_rotation_only_scales_and_translates():
             assert np.allclose(p - p.mean(0), (u - u.mean(0)) * t.scale, atol=1e-6)  # xatlas: float32 fit
 
 
+@pytest.mark.slow
 def test_raster_pack_nests_irregular_shapes_fuller_than_boxes():
     # few large L-shapes: the reading-order raster fill beats xatlas's placement of the same shapes
     uvs, fs = l_shaped_islands(6, seed=2)
@@ -84,6 +87,7 @@ def test_raster_pack_nests_irregular_shapes_fuller_than_boxes():
     assert r.utilisation > x.utilisation
 
 
+@pytest.mark.slow
 def test_perturbed_order_trials_pack_at_least_as_full_and_misses_are_cheap():
     uvs, fs = l_shaped_islands(9, seed=4)
     two = tight_pack(uvs, fs, padding=4, resolution=256, trials=2)
@@ -102,6 +106,7 @@ def test_perturbed_order_trials_pack_at_least_as_full_and_misses_are_cheap():
     assert c.raster_scale >= 0.9 * a.raster_scale
 
 
+@pytest.mark.slow
 def test_tight_pack_fixed_density_spills_to_pages():
     uvs, fs = l_shaped_islands(20)
     one = tight_pack(uvs, fs, padding=2, resolution=128)
@@ -134,6 +139,7 @@ def test_granular_islands_cut_only_the_large_islands_into_connected_parts():
                                        big[Fb[b]][..., 0].max() <= big[Fb[a]][..., 0].min() + 1e-12)
 
 
+@pytest.mark.slow
 def test_tight_pack_cuts_a_dominant_island_only_when_it_packs_fuller():
     from neuraluv.layout.pack import SPLIT_GAIN
 
@@ -173,3 +179,45 @@ def test_shelf_pack_no_overlap_padding():
     # uniform scale: relative chart sizes kept
     s = [(u.max(0) - u.min(0)) / (c.max(0) - c.min(0)) for u, c in zip(res.uvs, charts)]
     assert np.allclose(s, s[0][0])
+
+
+def _rigid_scale(a, b):
+    """The uniform scale taking ``a`` to ``b`` by a proper motion (None when ``b`` is not such a copy)."""
+    from neuraluv.layout import rigid_fit
+
+    R, s, t = rigid_fit(a, b, scale=True)
+    ok = np.linalg.det(R) > 0 and np.abs(s * a @ R + t - b).max() <= 1e-7 * max(np.ptp(b), 1e-300)
+    return s if ok else None
+
+
+@pytest.mark.parametrize("packer", ["xatlas_pack", "xatlas_shape_pack"])
+def test_xatlas_packers_keep_padding_and_never_mirror(packer):
+    from neuraluv.layout import pack
+
+    uvs, fs = l_shaped_islands(7, seed=11)
+    res = getattr(pack, packer)(uvs, fs, padding=4, resolution=256)
+    assert res.packer == {"xatlas_pack": "xatlas", "xatlas_shape_pack": "xatlas-shapes"}[packer]
+    scale = [_rigid_scale(a, u) for a, u in zip(uvs, res.uvs)]
+    assert None not in scale  # every island a proper rigid copy (quarter turns at most, never a mirror)
+    # one common scale (one texel density); the box packer shrinks an island a little where xatlas's box is tighter
+    assert np.allclose(scale, max(scale), rtol=1e-6 if packer == "xatlas_shape_pack" else 0.01)
+    for u, f in zip(res.uvs, fs):
+        assert (signed_areas_2d(u, f) > 0).all() and u.min() >= 0 and u.max() <= 1
+    UV = np.vstack(res.uvs)
+    off = np.cumsum([0] + [len(u) for u in uvs])
+    F = np.vstack([f + o for f, o in zip(fs, off[:-1])])
+    v = validate_layout(np.column_stack([UV, np.zeros(len(UV))]), F, UV, F, padding=4, resolution=256)
+    assert v["valid"] and v["padding_violations"] == 0, v
+
+
+def test_every_packer_returns_its_declared_result():
+    from dataclasses import fields
+
+    from neuraluv.layout.pack import PackResult, xatlas_pack
+
+    uvs, fs = l_shaped_islands(4, seed=2)
+    declared = {f.name for f in fields(PackResult)}
+    for res in (shelf_pack(uvs, fs, padding=2, resolution=128), raster_pack(uvs, fs, padding=2, resolution=128),
+                tight_pack(uvs, fs, padding=2, resolution=128, trials=2), xatlas_pack(uvs, fs, padding=2, resolution=128)):
+        assert set(vars(res)) == declared  # nothing bolted on
+        assert len(res.uvs) == len(uvs) and res.n_pages == 1 and 0 < res.utilisation <= 1 and res.packer

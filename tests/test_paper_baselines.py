@@ -172,6 +172,7 @@ def test_neural_wrapper_returns_the_same_type():
 
 # ------------------------------------------------- the paper's compact charts (Table 2/3)
 
+@pytest.mark.slow
 def test_camel_lscm_flips_and_slim_converges():
     V, F = real_mesh("camel")
     lscm = run_baseline("lscm", V, F)

@@ -12,6 +12,9 @@ from neuraluv.datasets import sphere
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench import provenance as tables
 
+#: every runner is a benchmark: ``make test-fast`` leaves them out
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(autouse=True)
 def one_thread():

@@ -185,6 +185,7 @@ def test_fps_geodesic_covering_radius():
 
 # --- probes during a solve and the bench runner ---------------------------------------------------
 
+@pytest.mark.slow
 def test_trajectory_probe_on_a_solve():
     V, F = datasets.spherical_cap(n_rings=5)
     cfg = get_config("test", iterations=12, k=4)
@@ -201,6 +202,7 @@ def test_trajectory_probe_on_a_solve():
     assert not np.allclose(rec.records[0]["curve"], rec.records[-1]["curve"])
 
 
+@pytest.mark.slow
 def test_bench_runner_writes_table(tmp_path):
     from neuraluv.cli import main
 
@@ -217,6 +219,7 @@ def test_bench_runner_writes_table(tmp_path):
     assert {r["S16_paper"] for r in rows} >= {"0.716", "0.527"}
 
 
+@pytest.mark.slow
 def test_trajectory_probe_rows_correlations_and_claims():
     from neuraluv_paper.bench.ntk import trajectory_probe
 

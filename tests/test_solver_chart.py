@@ -10,7 +10,8 @@ from neuraluv.errors import TopologyError
 from neuraluv.solver import PRESETS, get_config, prepare_chart, solve_chart
 
 
-@pytest.mark.parametrize("name", ["cap", "saddle", "bumpy", "glove"])
+@pytest.mark.parametrize("name", ["cap", "saddle", pytest.param("bumpy", marks=pytest.mark.slow),
+                                  pytest.param("glove", marks=pytest.mark.slow)])
 def test_test_preset_zero_flips(name):
     V, F = datasets.procedural(name)
     res = solve_chart(V, F, "test", device="cpu")
@@ -25,6 +26,7 @@ def test_test_preset_zero_flips(name):
     assert all(f == 0 for f in t["flips"])
 
 
+@pytest.mark.slow
 def test_glove_improves_substantially():
     V, F = datasets.glove()
     from neuraluv.metrics import distortion_metrics

@@ -16,7 +16,7 @@ from neuraluv.atlas.prepare import prepare_mesh
 from neuraluv.atlas.routing import ROUTES, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
-from neuraluv.layout.facts import layout_facts, texel_density
+from neuraluv.layout.facts import island_densities, layout_facts
 from neuraluv.layout.pack import PACK_TRIALS, PACKERS, SPLIT_SHARE, shelf_pack, tight_pack, xatlas_pack
 from neuraluv.layout.precision import float32_uvs
 from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box, upright
@@ -333,13 +333,13 @@ def _pack(charts, Vn, unit, m, packer, padding, resolution, *, fixed_density=Non
     islands = [isl for c in charts for isl in c.islands]
     rep = stack_groups(Vn, islands) if stack else np.arange(len(islands))
     own = np.flatnonzero(rep == np.arange(len(islands)))  # the islands packed (copies take their original's place)
-    uvs, fl, xyz = [], [], []
-    for fidx, vi, Fl, uv in (islands[i] for i in own):
-        d = texel_density(Vn[vi], Fl, uv)
+    fl = [islands[i][2] for i in own]
+    xyz = [Vn[islands[i][1]] for i in own]
+    uvs = []
+    for i, d, x in zip(own, island_densities(xyz, fl, [islands[i][3] for i in own]), xyz):
+        uv = islands[i][3]
         u = uv / d if np.isfinite(d) and d > 0 else uv
-        uvs.append(upright(u, Vn[vi]) if orient == "upright" else rotate_to_min_box(u))
-        fl.append(Fl)
-        xyz.append(Vn[vi])
+        uvs.append(upright(u, x) if orient == "upright" else rotate_to_min_box(u))
     if packer == "tight":
         try:
             packed = tight_pack(uvs, fl, padding=padding, resolution=resolution,

@@ -26,7 +26,8 @@ from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import face_dets
 from neuraluv.topology import faces_sharing
 
-__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "face_clusters", "texel_density", "face_texel_density",
+__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "face_clusters", "texel_density", "island_densities",
+           "face_texel_density",
            "density_spread", "DEGENERATE_3D_AREA"]
 
 #: Faces of the unit-box mesh with less 3D area than this have no distortion (their UVs are left alone).
@@ -125,6 +126,33 @@ def texel_density(V, F, UV, FUV=None, labels=None):
         return float(_density(signed, a3, np.zeros(len(F), np.int64), 1)[0][0])
     labels = np.asarray(labels, np.int64)
     return _density(signed, a3, labels, int(labels.max()) + 1 if len(labels) else 0)[0]
+
+
+def island_densities(xyz, faces, uvs):
+    """:func:`texel_density` of separate islands, in one call.
+
+    Parameters
+    ----------
+    xyz : list of (n_i,3) float arrays, each island's 3D vertices
+    faces : list of (m_i,3) int arrays, indices into the island's own vertices
+    uvs : list of (n_i,2) float arrays
+
+    Returns
+    -------
+    (k,) float array (NaN where no face counts)
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2]])
+    >>> island_densities([V, 2 * V], [F, F], [V[:, :2], V[:, :2]]).tolist()
+    [1.0, 0.5]
+    """
+    if not len(faces):
+        return np.zeros(0)
+    off = np.cumsum([0] + [len(u) for u in uvs])
+    F = np.vstack([np.asarray(f, np.int64) + o for f, o in zip(faces, off[:-1])])
+    labels = np.repeat(np.arange(len(faces)), [len(f) for f in faces])
+    return texel_density(np.vstack(xyz), F, np.vstack(uvs), labels=labels)
 
 
 def density_spread(density):

@@ -102,7 +102,8 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
             parts = [(i, idx, *submesh(faces[i], idx)) for i, idx in pieces]
             puvs = [np.asarray(uvs[i], float)[vi] for i, _, vi, _ in parts]
             if xyz is not None:
-                d = [facts.texel_density(np.asarray(xyz[i], float)[vi], f, u) for u, (i, _, vi, f) in zip(puvs, parts)]
+                d = facts.island_densities([np.asarray(xyz[i], float)[vi] for i, _, vi, _ in parts],
+                                           [f for *_, f in parts], puvs)
                 puvs = [u / di if np.isfinite(di) and di > 0 else u for u, di in zip(puvs, d)]
             cut = _best_of_trials([rotate_to_min_box(u) for u in puvs] if rotate else puvs,
                                   [f for *_, f in parts], **kw)
