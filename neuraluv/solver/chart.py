@@ -28,14 +28,15 @@ from neuraluv.meshfix import normalize_unit_box
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
-from neuraluv.solver.engine import make_batch, optimise, to_module
-from neuraluv.solver.result import ChartResult
-from neuraluv.solver.siren import Siren
+from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.result import ChartResult, Stop
+from neuraluv.solver.siren import Siren, to_module
 from neuraluv.spectral import chart_features, lbo_eigenfunctions
 from neuraluv.topology import is_disk_like
 from neuraluv.tutte import tutte
 
-__all__ = ["PreparedChart", "prepare_chart", "build_network", "ChartResult", "solve_chart", "solve_charts"]
+__all__ = ["PreparedChart", "prepare_chart", "build_network", "ChartResult", "Stop", "solve_chart", "solve_charts",
+           "batch_plan"]
 
 
 @dataclass
@@ -185,18 +186,42 @@ def build_network(prep, config="fast", *, seed=0, device="cpu"):
     return net.to(device)
 
 
-def _batches(preps, max_rows, max_batch):
-    """Group chart indices by vertex count so that padding stays small and a batch fits ``max_rows``.
+def batch_plan(sizes, max_rows, max_batch):
+    """Group charts into batches by vertex count, so that padding stays small and a batch fits ``max_rows``.
 
+    Parameters
+    ----------
+    sizes : (N,) sequence of int
+        Vertex count of every chart (``len(prep.X)``).
+    max_rows : int
+        At most this many padded vertex rows per batch (charts × the batch's largest chart).
+    max_batch : int
+        At most this many charts per batch.
+
+    Returns
+    -------
+    list of list of int
+        Chart indices per batch, smallest charts first (the batches of :func:`solve_charts`).
+
+    Notes
+    -----
     Charts in a batch have at most 2.5× (plus 32) the vertices of its smallest
     chart: padding costs network time, but every batch costs a fixed
     per-step overhead too, which dominates for charts of a few dozen vertices.
+
+    Examples
+    --------
+    >>> batch_plan([40, 500, 30, 45, 600], max_rows=1000, max_batch=512)
+    [[2, 0, 3], [1], [4]]
+    >>> batch_plan([40, 500, 30, 45, 600], max_rows=1000, max_batch=2)
+    [[2, 0], [3], [1], [4]]
     """
-    order = sorted(range(len(preps)), key=lambda i: len(preps[i].X))
+    sizes = [int(n) for n in sizes]
+    order = sorted(range(len(sizes)), key=lambda i: sizes[i])
     groups, cur = [], []
     for i in order:
-        n = len(preps[i].X)
-        if cur and (n * (len(cur) + 1) > max_rows or len(cur) >= max_batch or n > 2.5 * len(preps[cur[0]].X) + 32):
+        n = sizes[i]
+        if cur and (n * (len(cur) + 1) > max_rows or len(cur) >= max_batch or n > 2.5 * sizes[cur[0]] + 32):
             groups.append(cur)
             cur = []
         cur.append(i)
@@ -213,7 +238,7 @@ def _result(cfg, prep, attempts, log, t_start, device):
     neural_uv = uv
     start, sm = prep.start, prep.start_metrics
     status, reason = "neural", ""
-    if m["valid"] and not trace["iter"] and stop == "time":
+    if m["valid"] and not trace["iter"] and stop is Stop.TIME:
         status = "fallback"
         reason = f"time budget exhausted before this chart's solve; the valid start ({start}) is returned"
     elif m["valid"] and not trace["iter"]:
@@ -224,12 +249,9 @@ def _result(cfg, prep, attempts, log, t_start, device):
                   "un-crushed first when start_relax > 0)")
     elif m["valid"] and np.array_equal(uv, prep.u_start * s):
         status = "fallback"
-        if stop == "time" and not trace["iter"]:
-            reason = f"time budget exhausted before this chart's solve; the valid start ({start}) is returned"
-        else:
-            reason = (f"no accepted step improved on the start ({start}, min det J {sm['min_det']:.2g}, "
-                      f"{len(trace['iter'])} iterations); the valid start is returned (a start below relax_below is "
-                      "un-crushed first when start_relax > 0)")
+        reason = (f"no accepted step improved on the start ({start}, min det J {sm['min_det']:.2g}, "
+                  f"{len(trace['iter'])} iterations); the valid start is returned (a start below relax_below is "
+                  "un-crushed first when start_relax > 0)")
     elif not m["valid"]:
         status = "fallback"
         if sm["valid"]:
@@ -246,7 +268,7 @@ def _result(cfg, prep, attempts, log, t_start, device):
     base = torch.as_tensor(prep.u_start, dtype=torch.float64, device=device) if residual else None
     return ChartResult(
         uv=uv, metrics=m, status=status, reason=reason, trace=trace, time=time.perf_counter() - t_start,
-        seed=used_seed, attempts=len(attempts), stop=stop, config=cfg.as_dict(),
+        seed=used_seed, attempts=len(attempts), stop=stop.label, config=cfg.as_dict(),
         network=to_module(theta, prep.X.shape[1], cfg, base), start=start,
         attempt_metrics=[a[0] for a in attempts], neural_uv=neural_uv, attempt_log=log,
     )
@@ -275,7 +297,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
         Run the disk-like test first (raises :class:`TopologyError`).
     deadline : float, optional
         ``time.perf_counter()`` value at which every running optimisation stops
-        (its best map so far is used, ``stop == "time"``).
+        (its best map so far is used, stop reason ``Stop.TIME``, ``"time"``).
     max_rows, max_batch : int
         A batch holds at most ``max_batch`` charts and ``max_rows`` padded vertex rows.
     preps : list of PreparedChart, optional
@@ -312,7 +334,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     for a in range(cfg.retries + 1):
         if not todo:
             break
-        for group in _batches([preps[i] for i in todo], max_rows, max_batch):
+        for group in batch_plan([len(preps[i].X) for i in todo], max_rows, max_batch):
             idx = [todo[j] for j in group]
             tb = time.perf_counter()
             batch = make_batch([preps[i] for i in idx], residual=residual, device=dev)
@@ -324,7 +346,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
                 m = distortion_metrics(p.V, p.F, uv)
                 tr = res.traces[k]
                 attempts[i].append((m, uv, tr, res.stop[k], seed + a, res.theta[k]))
-                logs[i].append({"seed": seed + a, "lr": cfg.lr * 0.5**a, "stop": res.stop[k], "iterations": len(tr["iter"]),
+                logs[i].append({"seed": seed + a, "lr": cfg.lr * 0.5**a, "stop": res.stop[k].label, "iterations": len(tr["iter"]),
                                 "rejected": tr["rejected"][-1] if tr["rejected"] else 0, "valid": m["valid"],
                                 "flips": m["flips"]})
             dt = time.perf_counter() - tb
