@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from neuraluv.jacobian import jacobians, local_frames
+from neuraluv.metrics import face_metrics
+
 __all__ = ["slim_relax", "slim_relax_until", "slim_relax_while"]
 
 
@@ -57,7 +60,7 @@ def slim_relax(V, F, UV0, iterations=20):
     return np.ascontiguousarray(np.asarray(uv)[:, :2])
 
 
-def slim_relax_until(V, F, UV0, min_det, max_iterations=100):
+def slim_relax_until(V, F, UV0, min_det, max_iterations=100, *, frames=None):
     """SLIM iterations, one at a time, until the smallest det J reaches ``min_det``.
 
     Used to un-crush a convex-boundary start just enough for first-order
@@ -73,6 +76,9 @@ def slim_relax_until(V, F, UV0, min_det, max_iterations=100):
         Stop as soon as every face has ``det J >= min_det``.
     max_iterations : int
         Upper bound on SLIM iterations.
+    frames : (dC_inv (m,2,2), A (m,)), optional
+        :func:`~neuraluv.jacobian.local_frames` of ``(V, F)``, when the caller
+        has them (computed once otherwise, not once per iteration).
 
     Returns
     -------
@@ -97,15 +103,19 @@ def slim_relax_until(V, F, UV0, min_det, max_iterations=100):
     """
     import igl
 
-    from neuraluv.metrics import face_dets
+    F = np.asarray(F, np.int64)
+    dC_inv = (local_frames(V, F) if frames is None else frames)[0]
+
+    def smallest_det(UV):
+        return face_metrics(jacobians(UV, F, dC_inv))["det"].min()
 
     UV = np.ascontiguousarray(np.asarray(UV0, float)[:, :2])
-    if face_dets(V, F, UV).min() >= min_det:
+    if smallest_det(UV) >= min_det:
         return UV, 0
     data, it = _slim_data(V, F, UV), 0
     for it in range(1, int(max_iterations) + 1):
         UV = np.ascontiguousarray(np.asarray(igl.slim_solve(data, 1))[:, :2])
-        if face_dets(V, F, UV).min() >= min_det:
+        if smallest_det(UV) >= min_det:
             break
     return UV, it
 

@@ -13,7 +13,6 @@ import scipy.sparse.linalg
 
 from neuraluv.errors import TopologyError
 from neuraluv.jacobian import jacobians, local_frames
-from neuraluv.meshfix import face_areas
 from neuraluv.topology import boundary_loop
 
 __all__ = ["circle_boundary", "tutte"]
@@ -49,7 +48,7 @@ def circle_boundary(V, bnd, radius=1.0):
     return radius * np.column_stack([np.cos(t), np.sin(t)])
 
 
-def tutte(V, F, *, weights="uniform", bnd=None):
+def tutte(V, F, *, weights="uniform", bnd=None, frames=None):
     """Tutte embedding with the boundary on a circle of the chart's 3D area.
 
     Parameters
@@ -63,6 +62,9 @@ def tutte(V, F, *, weights="uniform", bnd=None):
         teaching).
     bnd : (b,) int array, optional
         Boundary loop to pin; the longest loop by default.
+    frames : (dC_inv (m,2,2), A (m,)), optional
+        :func:`~neuraluv.jacobian.local_frames` of ``(V, F)``, when the caller
+        has them (the areas and the orientation test use them).
 
     Returns
     -------
@@ -90,7 +92,8 @@ def tutte(V, F, *, weights="uniform", bnd=None):
         bnd = boundary_loop(F)
     if len(bnd) < 3:
         raise TopologyError("Tutte map needs a boundary loop of at least 3 vertices (is the chart closed?)")
-    area = face_areas(V, F).sum()
+    dC_inv, A = local_frames(V, F) if frames is None else frames
+    area = A.sum()
     bc = circle_boundary(V, bnd, radius=np.sqrt(area / np.pi))
     if weights == "uniform":
         E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
@@ -113,7 +116,6 @@ def tutte(V, F, *, weights="uniform", bnd=None):
         rhs = -(L[interior][:, bnd] @ bc)
         UV[interior] = scipy.sparse.linalg.spsolve(Lii, rhs).reshape(-1, 2)
     # orientation: make the map orientation-preserving w.r.t. F's winding
-    dC_inv, A = local_frames(V, F)
     if np.sum(A * np.linalg.det(jacobians(UV, F, dC_inv))) < 0:
         UV[:, 1] *= -1
     return UV

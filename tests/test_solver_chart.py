@@ -7,7 +7,7 @@ import torch
 
 from neuraluv import datasets
 from neuraluv.errors import TopologyError
-from neuraluv.solver import PRESETS, get_config, prepare_chart, solve_chart
+from neuraluv.solver import PRESETS, get_config, prepare_chart, solve_chart, solve_charts
 
 
 @pytest.mark.parametrize("name", ["cap", "saddle", pytest.param("bumpy", marks=pytest.mark.slow),
@@ -212,19 +212,26 @@ def test_spectral_init_fits_the_spectral_map():
     phi = prep.eig[1][:, :2] - prep.eig[1][:, :2].mean(0)
     assert np.allclose(prep.target / np.linalg.norm(prep.target, axis=0), phi / np.linalg.norm(phi, axis=0))
     assert np.sqrt((prep.target**2).sum(1).mean()) == pytest.approx(np.sqrt((prep.u_start**2).sum(1).mean()))
-    fits = {}
 
-    def cb(ev, s, model):
-        if ev == "warmup_end":
-            with torch.no_grad():
-                fits["err"] = float(((model(torch.as_tensor(prep.X)) - torch.as_tensor(prep.target)) ** 2).mean())
+    def warm_map(c):
+        """The network's map right after the warm-up of a solve with config ``c``."""
+        got = {}
 
-    solve_chart(V, F, cfg, device="cpu", callback=cb)
-    untrained = solve_chart(V, F, replace(cfg, warmup_iters=0), device="cpu", callback=cb)
-    assert untrained is not None
-    fitted_err = fits["err"]  # the last callback was the run without warm-up
-    solve_chart(V, F, cfg, device="cpu", callback=cb)
-    assert fits["err"] < 0.1 * fitted_err
+        def cb(ev, s, model):
+            if ev == "warmup_end":
+                with torch.no_grad():
+                    got["u"] = model(torch.as_tensor(prep.X)).numpy()
+
+        solve_chart(V, F, c, device="cpu", callback=cb)
+        return got["u"]
+
+    def err(u, ref):
+        return float(((u - ref) ** 2).mean())
+
+    fitted, untrained = warm_map(cfg), warm_map(replace(cfg, warmup_iters=0))
+    # the warm-up brings the network onto the spectral map (from far off), and not onto the Tutte map
+    assert err(fitted, prep.target) < 0.01 * err(untrained, prep.target)
+    assert err(fitted, prep.target) < 0.01 * err(fitted, prep.u_start)
 
 
 def test_degenerate_chart_is_a_clear_error_not_a_crash():
@@ -243,8 +250,8 @@ def test_invalid_start_gives_a_marked_fallback(monkeypatch):
 
     real = chart_mod.tutte
 
-    def folded(V, F):
-        UV = real(V, F)
+    def folded(V, F, **kw):
+        UV = real(V, F, **kw)
         UV[F[0, 0]] += 0.8  # drag one vertex across the chart
         return UV
 
@@ -255,6 +262,70 @@ def test_invalid_start_gives_a_marked_fallback(monkeypatch):
     assert res.status == "fallback" and res.attempts == 2
     assert "no flip-free map found after 2 attempts" in res.reason and "the chart may be degenerate" in res.reason
     assert res.metrics["flips"] > 0  # the map returned is marked, not passed off as valid
+
+
+def test_stop_reason_round_trips_through_the_summary():
+    """A run that uses its whole budget says ``budget`` in the result, the attempt log and the JSON summary."""
+    import json
+
+    from neuraluv.solver.result import Stop
+
+    V, F = datasets.spherical_cap(4)
+    res = solve_chart(V, F, get_config("test", iterations=7, retries=0), device="cpu")
+    assert len(res.trace["iter"]) == 7
+    assert Stop.from_label(res.stop) is Stop.BUDGET and res.attempt_log[0]["stop"] == "budget"
+    summary = json.loads(json.dumps(res.summary()))
+    assert summary["stop"] == "budget" and Stop.from_label(summary["stop"]) is Stop.BUDGET
+    assert [Stop.from_label(s.label) for s in Stop] == list(Stop)
+
+
+def test_prepare_chart_computes_the_start_as_before():
+    """The frames computed once give the same Tutte map and start metrics as computing them in each callee."""
+    from neuraluv.metrics import distortion_metrics
+    from neuraluv.relax import slim_relax_until
+    from neuraluv.tutte import tutte
+
+    V, F = datasets.glove()
+    cfg = get_config("test", start_relax=30, relax_below=1.0, eps=0.05)
+    prep = prepare_chart(V, F, cfg)
+    plain = tutte(prep.Vn, F)
+    relaxed, n = slim_relax_until(prep.Vn, F, plain, cfg.eps, cfg.start_relax)
+    assert n > 0 and prep.start == f"tutte+slim{n}"
+    assert prep.u_start.tobytes() == relaxed.tobytes()
+    assert prep.start_metrics == distortion_metrics(prep.Vn, F, relaxed)
+    assert tutte(prep.Vn, F, frames=(prep.dC_inv, prep.A)).tobytes() == plain.tobytes()
+
+
+def test_prepare_chart_with_a_given_start_pinned_rows_and_a_lower_rank():
+    """What local repair asks of prepare_chart: its start as given, a free mask, padded features."""
+    from neuraluv.metrics import distortion_metrics
+
+    V, F = datasets.spherical_cap(4)
+    cfg = get_config("test")
+    full = prepare_chart(V, F, cfg)
+    u0 = full.u_start * 1.01
+    free = np.arange(len(V)) % 3 != 0
+    p = prepare_chart(V, F, cfg, k=3, start_uv=u0, start_name="repair", free=free, check=False)
+    assert p.start == "repair" and p.u_start.tobytes() == u0.tobytes() and p.free.tolist() == free.tolist()
+    assert p.start_metrics == distortion_metrics(p.Vn, F, u0)
+    assert p.X.shape == full.X.shape and p.X.dtype == np.float32
+    assert np.array_equal(p.X[:, :6], full.X[:, :6]) and not p.X[:, 6:].any()
+    # the pinned rows stay exactly at the start, the free ones move
+    res = solve_charts(None, get_config(cfg, iterations=10, retries=0), device="cpu", preps=[p])[0]
+    assert res.uv[~free].tobytes() == (u0[~free] * p.scale).tobytes()
+    assert not np.allclose(res.uv[free], u0[free] * p.scale)
+
+
+def test_batch_plan_covers_every_chart_within_the_limits():
+    from neuraluv.solver.chart import batch_plan
+
+    sizes = np.random.default_rng(0).integers(3, 3000, 200)
+    plan = batch_plan(sizes, max_rows=20000, max_batch=16)
+    assert sorted(i for g in plan for i in g) == list(range(len(sizes)))
+    for g in plan:
+        n = sizes[g]
+        assert len(g) <= 16 and (len(g) == 1 or n.max() * len(g) <= 20000)
+        assert n.max() <= 2.5 * n.min() + 32
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device here (the solver's CUDA path is checked on a GPU)")

@@ -5,7 +5,9 @@ import torch
 
 from neuraluv import datasets
 from neuraluv.solver import get_config, prepare_chart, solve_charts
-from neuraluv.solver.engine import LBFGSMemory, forward, init_params, make_batch, optimise, param_count, to_module
+from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.lbfgs import LBFGSMemory
+from neuraluv.solver.siren import forward, init_params, param_count, to_module
 
 
 def _two_loop(g, pairs, gamma):
@@ -106,3 +108,43 @@ def test_fast_preset_is_the_papers_recipe_with_a_smaller_network_and_lbfgs():
     same = ("k", "init", "residual", "eps_J", "eps", "alpha_start", "alpha_end", "reject", "det_drop", "start_relax",
             "relax_below", "retries")
     assert all(getattr(f, a) == getattr(p, a) for a in same)
+
+
+def test_every_chart_of_a_batch_reports_why_it_stopped():
+    """Budget and stall in one batch (the stalled chart leaves it first), as ``Stop`` members, never RUNNING."""
+    from neuraluv.solver.result import Stop
+
+    charts = [datasets.spherical_cap(4), datasets.glove(res=2)]
+    cfg = get_config("test", iterations=12, max_backtracks=2)
+    preps = [prepare_chart(V, F, cfg) for V, F in charts]
+    # a learning rate 10^4 times the preset's makes every step of the second chart fold: it stalls at its start
+    r = optimise(make_batch(preps), cfg, [0, 0], lr_scale=[1.0, 1e4])
+    assert r.stop == [Stop.BUDGET, Stop.STALLED]
+    assert len(r.traces[0]["iter"]) == 12 and r.traces[1]["iter"] == []
+    assert r.traces[0]["rejected"][-1] == 0
+    # the stalled chart's best map is its start, kept after it left the batch
+    n = len(preps[1].X)
+    assert np.array_equal(r.best_uv[1, :n], preps[1].u_start)
+
+
+def test_a_passed_deadline_stops_every_chart_before_any_step():
+    import time
+
+    from neuraluv.solver.result import Stop
+
+    charts = [datasets.spherical_cap(3), datasets.spherical_cap(4)]
+    cfg = get_config("fast", iterations=50)
+    preps = [prepare_chart(V, F, cfg) for V, F in charts]
+    r = optimise(make_batch(preps), cfg, [0, 0], deadline=time.perf_counter() - 1.0)
+    assert r.stop == [Stop.TIME, Stop.TIME] and r.rounds == 0 and r.backward == 1
+    assert all(t["iter"] == [] for t in r.traces)
+
+
+def test_early_stop_is_reported_per_chart():
+    from neuraluv.solver.result import Stop
+
+    cfg = get_config("fast", iterations=300, patience=20, tol=0.05, early_after=0.0)
+    preps = [prepare_chart(V, F, cfg) for V, F in (datasets.spherical_cap(3), datasets.disk(2))]
+    r = optimise(make_batch(preps), cfg, [0, 0])
+    assert r.stop == [Stop.EARLY_STOP, Stop.EARLY_STOP]
+    assert all(20 <= len(t["iter"]) < 300 for t in r.traces)

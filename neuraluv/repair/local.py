@@ -143,12 +143,9 @@ def neural_region(Vn, F, UV, FUV, faces, free, scale, config="fast", *, seed=0, 
     chart's normalised units, and the network's output is multiplied by 0 on the
     pinned rows, so they stay bit-identical.
     """
-    from neuraluv.jacobian import local_frames
     from neuraluv.meshfix import normalize_unit_box
-    from neuraluv.metrics import distortion_metrics
-    from neuraluv.solver.chart import PreparedChart, solve_charts
+    from neuraluv.solver.chart import prepare_chart, solve_charts
     from neuraluv.solver.config import get_config
-    from neuraluv.spectral import chart_features, lbo_eigenfunctions
 
     cfg = get_config(config)
     T = FUV[faces]
@@ -156,18 +153,11 @@ def neural_region(Vn, F, UV, FUV, faces, free, scale, config="fast", *, seed=0, 
     Fc = np.searchsorted(rows, T)
     Vc = np.zeros((len(rows), 3))
     Vc[Fc.reshape(-1)[::-1]] = Vn[F[faces].reshape(-1)[::-1]]
-    Vcn, _, sv = normalize_unit_box(Vc)
-    dC_inv, A = local_frames(Vcn, Fc)
-    k = min(cfg.k, max(len(rows) - 2, 0))
-    eig = lbo_eigenfunctions(Vcn, Fc, max(k, 2)) if k > 0 else (np.zeros(0), np.zeros((len(rows), 0)))
-    X = chart_features(Vcn, Fc, k, eig=(eig[0][:k], eig[1][:, :k]))
-    if X.shape[1] != 3 + cfg.k:  # tiny regions: pad the spectral columns so the network shape is the preset's
-        X = np.concatenate([X, np.zeros((len(X), 3 + cfg.k - X.shape[1]), X.dtype)], 1)
-    u0 = UV[rows] / (scale * sv)
-    m0 = distortion_metrics(Vcn, Fc, u0)
-    prep = PreparedChart(V=Vcn * sv, F=Fc, Vn=Vcn, scale=float(sv), X=X.astype(np.float32), eig=eig, u_start=u0,
-                         start="repair", start_metrics=m0, dC_inv=dC_inv, A=A, target=None,
-                         free=np.isin(rows, free))
+    sv = normalize_unit_box(Vc)[2]  # the chart's units: the start is UV / scale in them
+    # tiny regions: at most n - 2 eigenfunctions (prepare_chart pads the features to the preset's width)
+    prep = prepare_chart(Vc, Fc, cfg, check=False, k=max(len(rows) - 2, 0),
+                         start_uv=UV[rows] / (scale * sv), start_name="repair", free=np.isin(rows, free),
+                         label="repair region")
     res = solve_charts(None, cfg, seed=seed, device=device, preps=[prep], deadline=deadline)[0]
     out = UV.copy()
     if res.metrics["valid"] and res.status == "neural":

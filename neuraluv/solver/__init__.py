@@ -3,10 +3,12 @@
 =================  ==========================================================
 ``config``         :class:`SolverConfig`, :data:`PRESETS` (torch-free)
 ``device``         device selection, CPU thread control
-``siren``          the chart network (SIREN with a residual head)
+``siren``          the chart network (SIREN with a residual head), also on stacked flat parameters
 ``energy``         Jacobians in torch, the C² extension, E_SD, barrier, objective
-``result``         :class:`ChartResult` (torch-free)
+``result``         :class:`ChartResult`, :class:`Stop` (why a solve ended; torch-free)
 ``engine``         the batched, validity-checked optimisation loop (Adam, L-BFGS)
+``lbfgs``          L-BFGS memory of a batch in compact form
+``trace``          the per-round trace of a batch, in preallocated chunks
 ``chart``          :func:`prepare_chart`, :func:`solve_chart`, :func:`solve_charts`
 ``ntk``            NTK–LBO probes of the chart network (paper Table 5)
 =================  ==========================================================
@@ -21,10 +23,10 @@ import importlib
 from neuraluv.solver.config import PRESET_HELP, PRESETS, SolverConfig, get_config
 
 __all__ = ["SolverConfig", "PRESETS", "PRESET_HELP", "get_config", "ChartResult", "PreparedChart", "prepare_chart",
-           "solve_chart", "solve_charts", "build_network", "resolve_device", "torch_threads"]
+           "solve_chart", "solve_charts", "build_network", "resolve_device", "torch_threads", "Stop"]
 
 _LAZY = {
-    "ChartResult": "result", "PreparedChart": "chart", "prepare_chart": "chart", "solve_chart": "chart",
+    "ChartResult": "result", "Stop": "result", "PreparedChart": "chart", "prepare_chart": "chart", "solve_chart": "chart",
     "solve_charts": "chart",
     "build_network": "chart", "resolve_device": "device", "torch_threads": "device",
 }

@@ -23,19 +23,21 @@ import numpy as np
 import torch
 
 from neuraluv.errors import TopologyError
-from neuraluv.jacobian import local_frames
+from neuraluv.jacobian import jacobians, local_frames
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.metrics import distortion_metrics
+from neuraluv.metrics import distortion_metrics, metrics_from_jacobians
+from neuraluv.relax import slim_relax_until
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
-from neuraluv.solver.engine import make_batch, optimise, to_module
-from neuraluv.solver.result import ChartResult
-from neuraluv.solver.siren import Siren
+from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.result import ChartResult, Stop
+from neuraluv.solver.siren import Siren, to_module
 from neuraluv.spectral import chart_features, lbo_eigenfunctions
 from neuraluv.topology import is_disk_like
 from neuraluv.tutte import tutte
 
-__all__ = ["PreparedChart", "prepare_chart", "build_network", "ChartResult", "solve_chart", "solve_charts"]
+__all__ = ["PreparedChart", "prepare_chart", "build_network", "ChartResult", "Stop", "solve_chart", "solve_charts",
+           "batch_plan"]
 
 
 @dataclass
@@ -52,7 +54,8 @@ class PreparedChart:
     X : (n, 3+k) float32 array, the SIREN input ``[p̃ ‖ ψ̃_1..k]``.
     eig : (evals (k',), phi (n,k')), the LBO eigenpairs of ``Vn`` (k' ≥ k).
     u_start : (n,2) float array, the valid start on ``Vn`` (the residual base).
-    start : ``"tutte"`` or ``"tutte+slimN"`` (un-crushed, see ``start_relax``).
+    start : ``"tutte"``, ``"tutte+slimN"`` (un-crushed, see ``start_relax``), or the
+        ``start_name`` of a start given to :func:`prepare_chart`.
     start_metrics : :func:`~neuraluv.metrics.distortion_metrics` of ``u_start`` on ``Vn``.
     dC_inv : (m,2,2) float array, A : (m,) float array: local frames and areas of ``Vn``.
     target : (n,2) float array or None, the map the warm-up fits in absolute mode.
@@ -91,7 +94,8 @@ def _init_target(cfg, u_start, eig):
     raise ValueError(f"init must be 'tutte', 'spectral' or 'random', got {cfg.init!r}")
 
 
-def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, label="chart"):
+def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, k=None, start_uv=None, start_name="given", free=None,
+                  label="chart"):
     """Lines 1–3 of Algorithm 1: normalise, features, local frames, a valid start.
 
     Parameters
@@ -103,8 +107,20 @@ def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, label="chart")
     check : bool
         Run the disk-like test first (raises :class:`~neuraluv.errors.TopologyError`).
     n_eig : int, optional
-        Number of LBO eigenpairs to keep in ``eig`` (default: the config's ``k``,
+        Number of LBO eigenpairs to keep in ``eig`` (default: the spectral rank,
         at least 2); the NTK probes need more than the network's input.
+    k : int, optional
+        Spectral rank of the features (default and at most the config's ``k``).
+        ``X`` keeps ``3 + config.k`` columns: the missing eigenfunctions are
+        zero columns, so the network has the config's shape whatever ``k``.
+    start_uv : (n,2) float array, optional
+        A valid start in the units of ``Vn`` (UVs at ``V``'s scale divided by
+        ``scale``), used as it is instead of the Tutte map (no SLIM un-crushing).
+    start_name : str
+        ``start`` of the result when ``start_uv`` is given.
+    free : (n,) bool array, optional
+        Vertices the network may move; the others stay at the start exactly
+        (residual mode). None: all move.
     label : str
         Name used in error messages.
 
@@ -112,20 +128,34 @@ def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, label="chart")
     -------
     PreparedChart
 
+    Raises
+    ------
+    TopologyError
+        The chart is not disk-like (with ``check``) or has a zero-area face.
+
     Notes
     -----
-    The start is the uniform Tutte map on a circle of the chart's area. When
-    ``start_relax > 0`` and its smallest det J is below ``relax_below``, it is
-    un-crushed by flip-free SLIM iterations until every det J ≥ ``eps``
-    (:func:`neuraluv.relax.slim_relax_until`; not in the paper, see
-    :class:`~neuraluv.solver.config.SolverConfig`).
+    The local frames give ``J_t = ΔU_t ΔC_t⁻¹`` (paper Eq. 4); they are
+    computed once and serve the Tutte map's orientation, the start's metrics
+    and the SLIM un-crushing. The start is the uniform Tutte map on a circle of
+    the chart's area. When ``start_relax > 0`` and its smallest det J is below
+    ``relax_below``, it is un-crushed by flip-free SLIM iterations until every
+    det J ≥ ``eps`` (:func:`neuraluv.relax.slim_relax_until`; not in the paper,
+    see :class:`~neuraluv.solver.config.SolverConfig`).
 
     Examples
     --------
     >>> from neuraluv.datasets import spherical_cap
-    >>> p = prepare_chart(*spherical_cap(n_rings=4), "test")
+    >>> V, F = spherical_cap(n_rings=4)
+    >>> p = prepare_chart(V, F, "test")
     >>> p.X.shape, p.start, p.start_metrics["flips"]
     ((61, 11), 'tutte', 0)
+
+    A given start, two eigenfunctions (zero columns pad the features), vertex 0 pinned:
+
+    >>> q = prepare_chart(V, F, "test", k=2, start_uv=p.u_start, start_name="mine", free=np.arange(len(V)) > 0)
+    >>> q.X.shape, q.start, bool((q.X[:, 5:] == 0).all()), int((~q.free).sum())
+    ((61, 11), 'mine', True, 1)
     """
     cfg = get_config(config)
     V = np.asarray(V, float)
@@ -135,28 +165,48 @@ def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, label="chart")
         if not ok:
             raise TopologyError(f"{label} is not disk-like: {why}")
     Vn, _, s = normalize_unit_box(V)
-    dC_inv, A = local_frames(Vn, F)
+    frames = local_frames(Vn, F)
+    dC_inv, A = frames
     bad = ~(np.isfinite(dC_inv).all(axis=(1, 2)) & (A > 0))
     if bad.any():
         raise TopologyError(f"{label} has {int(bad.sum())} degenerate (zero-area) faces: remove them first "
                             "(neuraluv.meshfix.repair_mesh; `neuraluv unwrap` and `atlas` do this)")
-    n_eig = max(cfg.k, 2) if n_eig is None else max(int(n_eig), cfg.k, 2)
-    need_eig = cfg.k > 0 or cfg.init == "spectral" or n_eig > max(cfg.k, 2)
+    k = cfg.k if k is None else min(int(k), cfg.k)
+    n_eig = max(k, 2) if n_eig is None else max(int(n_eig), k, 2)
+    need_eig = k > 0 or cfg.init == "spectral" or n_eig > max(k, 2)
     eig = lbo_eigenfunctions(Vn, F, n_eig) if need_eig else (np.zeros(0), np.zeros((len(V), 0)))
-    X = chart_features(Vn, F, cfg.k, eig=(eig[0][: cfg.k], eig[1][:, : cfg.k]))
-    u0 = tutte(Vn, F)
-    m0 = distortion_metrics(Vn, F, u0)
-    start = "tutte"
-    if cfg.start_relax > 0 and m0["valid"] and m0["min_det"] < cfg.relax_below:
-        from neuraluv.relax import slim_relax_until
-
-        relaxed, n_relax = slim_relax_until(Vn, F, u0, cfg.eps, cfg.start_relax)
-        if n_relax > 0:
-            mr = distortion_metrics(Vn, F, relaxed)
-            if mr["valid"]:
-                u0, start, m0 = relaxed, f"tutte+slim{n_relax}", mr
+    X = chart_features(Vn, F, k, eig=(eig[0][:k], eig[1][:, :k]))
+    if X.shape[1] < 3 + cfg.k:  # a lower rank: zero columns keep the config's network shape
+        X = np.concatenate([X, np.zeros((len(X), 3 + cfg.k - X.shape[1]), X.dtype)], 1)
+    if start_uv is None:
+        u0, start, m0 = _tutte_start(cfg, Vn, F, frames)
+    else:
+        u0, start = np.asarray(start_uv, float), start_name
+        m0 = _metrics(u0, F, frames)
     return PreparedChart(V=V, F=F, Vn=Vn, scale=float(s), X=X, eig=eig, u_start=u0, start=start, start_metrics=m0,
-                         dC_inv=dC_inv, A=A, target=_init_target(cfg, u0, eig))
+                         dC_inv=dC_inv, A=A, target=_init_target(cfg, u0, eig),
+                         free=None if free is None else np.asarray(free, bool))
+
+
+def _metrics(u, F, frames):
+    """``distortion_metrics(Vn, F, u)`` from the chart's local frames ``(dC_inv, A)`` (computed once)."""
+    return metrics_from_jacobians(jacobians(u, F, frames[0]), frames[1])
+
+
+def _tutte_start(cfg, Vn, F, frames):
+    """Algorithm 1, line 3: the Tutte map of ``Vn``, un-crushed by SLIM when ``cfg.start_relax`` applies.
+
+    Returns ``(u (n,2), name, metrics)`` (see :func:`prepare_chart`).
+    """
+    u0 = tutte(Vn, F, frames=frames)
+    m0 = _metrics(u0, F, frames)
+    if cfg.start_relax > 0 and m0["valid"] and m0["min_det"] < cfg.relax_below:
+        relaxed, n_relax = slim_relax_until(Vn, F, u0, cfg.eps, cfg.start_relax, frames=frames)
+        if n_relax > 0:
+            mr = _metrics(relaxed, F, frames)
+            if mr["valid"]:
+                return relaxed, f"tutte+slim{n_relax}", mr
+    return u0, "tutte", m0
 
 
 def build_network(prep, config="fast", *, seed=0, device="cpu"):
@@ -185,18 +235,42 @@ def build_network(prep, config="fast", *, seed=0, device="cpu"):
     return net.to(device)
 
 
-def _batches(preps, max_rows, max_batch):
-    """Group chart indices by vertex count so that padding stays small and a batch fits ``max_rows``.
+def batch_plan(sizes, max_rows, max_batch):
+    """Group charts into batches by vertex count, so that padding stays small and a batch fits ``max_rows``.
 
+    Parameters
+    ----------
+    sizes : (N,) sequence of int
+        Vertex count of every chart (``len(prep.X)``).
+    max_rows : int
+        At most this many padded vertex rows per batch (charts × the batch's largest chart).
+    max_batch : int
+        At most this many charts per batch.
+
+    Returns
+    -------
+    list of list of int
+        Chart indices per batch, smallest charts first (the batches of :func:`solve_charts`).
+
+    Notes
+    -----
     Charts in a batch have at most 2.5× (plus 32) the vertices of its smallest
     chart: padding costs network time, but every batch costs a fixed
     per-step overhead too, which dominates for charts of a few dozen vertices.
+
+    Examples
+    --------
+    >>> batch_plan([40, 500, 30, 45, 600], max_rows=1000, max_batch=512)
+    [[2, 0, 3], [1], [4]]
+    >>> batch_plan([40, 500, 30, 45, 600], max_rows=1000, max_batch=2)
+    [[2, 0], [3], [1], [4]]
     """
-    order = sorted(range(len(preps)), key=lambda i: len(preps[i].X))
+    sizes = [int(n) for n in sizes]
+    order = sorted(range(len(sizes)), key=lambda i: sizes[i])
     groups, cur = [], []
     for i in order:
-        n = len(preps[i].X)
-        if cur and (n * (len(cur) + 1) > max_rows or len(cur) >= max_batch or n > 2.5 * len(preps[cur[0]].X) + 32):
+        n = sizes[i]
+        if cur and (n * (len(cur) + 1) > max_rows or len(cur) >= max_batch or n > 2.5 * sizes[cur[0]] + 32):
             groups.append(cur)
             cur = []
         cur.append(i)
@@ -213,7 +287,7 @@ def _result(cfg, prep, attempts, log, t_start, device):
     neural_uv = uv
     start, sm = prep.start, prep.start_metrics
     status, reason = "neural", ""
-    if m["valid"] and not trace["iter"] and stop == "time":
+    if m["valid"] and not trace["iter"] and stop is Stop.TIME:
         status = "fallback"
         reason = f"time budget exhausted before this chart's solve; the valid start ({start}) is returned"
     elif m["valid"] and not trace["iter"]:
@@ -224,12 +298,9 @@ def _result(cfg, prep, attempts, log, t_start, device):
                   "un-crushed first when start_relax > 0)")
     elif m["valid"] and np.array_equal(uv, prep.u_start * s):
         status = "fallback"
-        if stop == "time" and not trace["iter"]:
-            reason = f"time budget exhausted before this chart's solve; the valid start ({start}) is returned"
-        else:
-            reason = (f"no accepted step improved on the start ({start}, min det J {sm['min_det']:.2g}, "
-                      f"{len(trace['iter'])} iterations); the valid start is returned (a start below relax_below is "
-                      "un-crushed first when start_relax > 0)")
+        reason = (f"no accepted step improved on the start ({start}, min det J {sm['min_det']:.2g}, "
+                  f"{len(trace['iter'])} iterations); the valid start is returned (a start below relax_below is "
+                  "un-crushed first when start_relax > 0)")
     elif not m["valid"]:
         status = "fallback"
         if sm["valid"]:
@@ -246,7 +317,7 @@ def _result(cfg, prep, attempts, log, t_start, device):
     base = torch.as_tensor(prep.u_start, dtype=torch.float64, device=device) if residual else None
     return ChartResult(
         uv=uv, metrics=m, status=status, reason=reason, trace=trace, time=time.perf_counter() - t_start,
-        seed=used_seed, attempts=len(attempts), stop=stop, config=cfg.as_dict(),
+        seed=used_seed, attempts=len(attempts), stop=stop.label, config=cfg.as_dict(),
         network=to_module(theta, prep.X.shape[1], cfg, base), start=start,
         attempt_metrics=[a[0] for a in attempts], neural_uv=neural_uv, attempt_log=log,
     )
@@ -275,7 +346,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
         Run the disk-like test first (raises :class:`TopologyError`).
     deadline : float, optional
         ``time.perf_counter()`` value at which every running optimisation stops
-        (its best map so far is used, ``stop == "time"``).
+        (its best map so far is used, stop reason ``Stop.TIME``, ``"time"``).
     max_rows, max_batch : int
         A batch holds at most ``max_batch`` charts and ``max_rows`` padded vertex rows.
     preps : list of PreparedChart, optional
@@ -312,7 +383,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     for a in range(cfg.retries + 1):
         if not todo:
             break
-        for group in _batches([preps[i] for i in todo], max_rows, max_batch):
+        for group in batch_plan([len(preps[i].X) for i in todo], max_rows, max_batch):
             idx = [todo[j] for j in group]
             tb = time.perf_counter()
             batch = make_batch([preps[i] for i in idx], residual=residual, device=dev)
@@ -324,7 +395,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
                 m = distortion_metrics(p.V, p.F, uv)
                 tr = res.traces[k]
                 attempts[i].append((m, uv, tr, res.stop[k], seed + a, res.theta[k]))
-                logs[i].append({"seed": seed + a, "lr": cfg.lr * 0.5**a, "stop": res.stop[k], "iterations": len(tr["iter"]),
+                logs[i].append({"seed": seed + a, "lr": cfg.lr * 0.5**a, "stop": res.stop[k].label, "iterations": len(tr["iter"]),
                                 "rejected": tr["rejected"][-1] if tr["rejected"] else 0, "valid": m["valid"],
                                 "flips": m["flips"]})
             dt = time.perf_counter() - tb

@@ -6,14 +6,22 @@ flat tensor ``theta (B, P)`` (chart ``c``'s parameters in row ``c``), their
 inputs padded to a common vertex count, and each layer is one batched matrix
 product (``torch.baddbmm``). A chart with ``B = 1`` is the same code.
 
-One *round* evaluates a trial point for every active chart, forward, then
-decides per chart — as tensor operations, without a Python loop over charts —
-whether to accept it (no new flipped face, no collapse of the smallest det J,
-no loss rise / sufficient decrease), and backpropagates only when some chart
-accepted. A rejected trial halves that chart's step and is retried from the
-same state in the next round, so rejected trials cost a forward pass and
-nothing else: the optimiser state is never copied, the accepted and the trial
-states are kept side by side and merged with ``torch.where``.
+:func:`optimise` runs rounds; one *round* (a method of the run each):
+
+1. ``propose`` a trial for every running chart (Adam's update, or the L-BFGS
+   direction scaled by the chart's current step);
+2. ``evaluate`` all trials in one forward pass (energy, barrier, flips, smallest det J);
+3. ``decide`` per chart, as tensor operations without a Python loop over charts:
+   accept when there is no new flipped face, no collapse of the smallest det J,
+   and no loss rise / sufficient decrease;
+4. ``merge``: backpropagate only if some chart accepted, and take the accepted
+   trials with ``torch.where`` — the optimiser state is never copied, the
+   accepted and the trial states are kept side by side;
+
+then ``adapt`` halves the step of each refused chart (retried from the same
+state next round, so a refused trial costs one forward pass) and stops the
+charts that are done (:class:`~neuraluv.solver.result.Stop`); ``retire`` drops
+them from the batch.
 
 Two optimisers share that loop:
 
@@ -21,12 +29,10 @@ Two optimisers share that loop:
   the stacked parameters; mathematically PyTorch's ``torch.optim.Adam``.
 * ``lbfgs`` — limited-memory BFGS with a backtracking (Armijo) line search whose
   trials are the same validity-checked trials; the ``fast`` preset's optimiser.
-  The two-loop recursion is vectorised over charts: every round writes one
-  history slot for all charts (a zero pair, i.e. a no-op, for charts that did
-  not move), so all charts share one ring buffer and no per-chart gather is
+  Its memory (:class:`~neuraluv.solver.lbfgs.LBFGSMemory`) writes one history
+  slot for all charts every round (a zero pair, i.e. a no-op, for charts that
+  did not move), so all charts share one ring buffer and no per-chart gather is
   needed.
-
-Size: the loop, its batch layout and both optimisers' per-chart acceptance are one algorithm (Algorithm 1, lines 4-13) whose parts share tensors and invariants; they are kept together so the checks can be read next to the steps they guard.
 """
 from __future__ import annotations
 
@@ -38,9 +44,12 @@ import numpy as np
 import torch
 
 from neuraluv.solver.energy import chart_objective
-from neuraluv.solver.siren import Siren
+from neuraluv.solver.lbfgs import LBFGSMemory, memory_length, row_dot
+from neuraluv.solver.result import Stop
+from neuraluv.solver.siren import flat_grad, forward, init_params, leaves, to_module
+from neuraluv.solver.trace import TraceRecorder
 
-__all__ = ["ChartBatch", "make_batch", "param_count", "init_params", "forward", "to_module", "optimise", "EngineResult"]
+__all__ = ["ChartBatch", "make_batch", "optimise", "EngineResult"]
 
 
 # --------------------------------------------------------------------------- the batch
@@ -149,102 +158,6 @@ def _subset(batch, keep):
                       mask=None if batch.mask is None else batch.mask[keep_t])
 
 
-# --------------------------------------------------------------------------- the network on flat parameters
-
-
-def _shapes(d, width, n_layers):
-    """``[(in, out), ...]`` of the SIREN's linear layers (the last is the 2-D head)."""
-    dims = [d] + [width] * (n_layers - 1) + [2]
-    return list(zip(dims[:-1], dims[1:]))
-
-
-def param_count(d, width, n_layers):
-    """Number of parameters of one chart network.
-
-    Examples
-    --------
-    >>> param_count(19, 256, 5)  # the paper's network with k = 16
-    203010
-    """
-    return sum(i * o + o for i, o in _shapes(d, width, n_layers))
-
-
-def _views(theta, d, width, n_layers):
-    """``[(W (B,in,out), b (B,1,out)), ...]`` views into ``theta (B, P)``."""
-    out, o = [], 0
-    B = theta.shape[0]
-    for i, k in _shapes(d, width, n_layers):
-        W = theta[:, o:o + i * k].view(B, i, k)
-        o += i * k
-        b = theta[:, o:o + k].view(B, 1, k)
-        o += k
-        out.append((W, b))
-    return out
-
-
-def leaves(theta, d, width, n_layers):
-    """The layers of ``theta (B, P)`` as separate leaf tensors that require grad (sharing its memory).
-
-    Backpropagating into per-layer leaves and concatenating their gradients
-    (:func:`flat_grad`) is cheaper than backpropagating into views of one flat
-    leaf, which makes autograd scatter every layer's gradient into a full-size buffer.
-    """
-    return [(W.detach().requires_grad_(True), b.detach().requires_grad_(True)) for W, b in _views(theta, d, width, n_layers)]
-
-
-def flat_grad(layers):
-    """The gradient of :func:`leaves` as one ``(B, P)`` tensor (the layout of ``theta``)."""
-    B = layers[0][0].shape[0]
-    return torch.cat([t.grad.reshape(B, -1) for L in layers for t in L], 1)
-
-
-def forward(theta, X, base, *, width, n_layers, omega0, mask=None):
-    """UVs of every chart: ``base + head(sin(ω₀(… W₁ x + b₁ …)))`` (float64), ``(B, n, 2)``.
-
-    The same network as :class:`~neuraluv.solver.siren.Siren` (paper Eq. 3),
-    evaluated for all charts at once from their stacked weights. ``theta`` is
-    the flat ``(B, P)`` tensor or its :func:`leaves`. With ``mask (B, n, 1)``
-    the network's output is multiplied by it, so vertices with mask 0 stay
-    exactly at ``base`` (pinned; used by local UV repair).
-    """
-    layers = _views(theta, X.shape[2], width, n_layers) if torch.is_tensor(theta) else theta
-    h = X
-    for W, b in layers[:-1]:
-        h = torch.sin(torch.baddbmm(b, h, W, beta=omega0, alpha=omega0))  # sin(ω₀ (h W + b)), one fused product
-    W, b = layers[-1]
-    out = torch.baddbmm(b, h, W).to(torch.float64)
-    if mask is not None:
-        out = out * mask
-    return out if base is None else base + out
-
-
-def init_params(seeds, d, cfg, *, residual=True, device="cpu"):
-    """Stacked SIREN initialisations, one per seed (Sitzmann et al.; zero head in residual mode).
-
-    Each row is exactly the initialisation of ``Siren(d, cfg.width, cfg.n_layers,
-    cfg.omega0, base=..., generator=torch.Generator().manual_seed(seed))``.
-    """
-    rows = []
-    for s in seeds:
-        gen = torch.Generator().manual_seed(int(s) % (2**63))
-        net = Siren(d, cfg.width, cfg.n_layers, cfg.omega0, base=torch.zeros(1, 2, dtype=torch.float64) if residual else None,
-                    generator=gen)
-        lin = [m.linear for m in net.body] + [net.head]
-        rows.append(torch.cat([t for L in lin for t in (L.weight.detach().T.reshape(-1), L.bias.detach())]))
-    return torch.stack(rows).to(device)
-
-
-def to_module(theta_row, d, cfg, base=None):
-    """A :class:`~neuraluv.solver.siren.Siren` holding one chart's parameters (for callbacks, NTK probes)."""
-    net = Siren(d, cfg.width, cfg.n_layers, cfg.omega0, base=base)
-    lin = [m.linear for m in net.body] + [net.head]
-    with torch.no_grad():
-        for L, (W, b) in zip(lin, _views(theta_row[None].detach().cpu(), d, cfg.width, cfg.n_layers)):
-            L.weight.copy_(W[0].T)
-            L.bias.copy_(b[0, 0])
-    return net.to(theta_row.device)
-
-
 # --------------------------------------------------------------------------- the optimisation loop
 
 
@@ -255,32 +168,11 @@ class EngineResult:
     best_uv: np.ndarray          #: (B, n, 2) float64, the best map (fewest flips, then lowest E_SD)
     theta: torch.Tensor          #: (B, P) final parameters
     traces: list                 #: one dict of lists per chart (iter, loss, esd, min_det, flips, rejected, lr, time)
-    stop: list                   #: "budget", "early_stop", "stalled" or "time"
+    stop: list                   #: one :class:`~neuraluv.solver.result.Stop` per chart (never ``RUNNING``)
     start_esd: np.ndarray        #: (B,) true E_SD of the start (before any step)
     rounds: int                  #: rounds run (forward passes)
     backward: int                #: backward passes
     timing: dict                 #: seconds in forward, objective, backward, optimiser, bookkeeping
-
-
-def _alpha(it, cfg):
-    frac = torch.clamp(it / max(cfg.iterations, 1), 0.0, 1.0)
-    return cfg.alpha_start * torch.exp(frac * math.log(cfg.alpha_end / cfg.alpha_start))
-
-
-def _cosine(it, cfg, lr):
-    return cfg.lr_min + 0.5 * (lr - cfg.lr_min) * (1.0 + torch.cos(math.pi * torch.clamp(it / max(cfg.iterations, 1), 0.0, 1.0)))
-
-
-class _State:
-    """Per-chart tensors of a running optimisation (row ``i`` ↔ chart ``rows[i]``), compactable."""
-
-    def __init__(self, **tensors):
-        self.__dict__.update(tensors)
-
-    def select(self, keep):
-        for k, v in list(self.__dict__.items()):
-            if torch.is_tensor(v) and v.dim() > 0:
-                setattr(self, k, v[keep])
 
 
 def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, deadline=None, profile=False):
@@ -300,7 +192,7 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
     progress : tqdm-like, optional
         Updated once per accepted step of a single chart.
     deadline : float, optional
-        ``time.perf_counter()`` value at which every chart stops (``stop == "time"``).
+        ``time.perf_counter()`` value at which every chart stops (``Stop.TIME``).
     profile : bool
         Synchronise the device around each phase so ``timing`` is exact (slower on CUDA).
 
@@ -310,134 +202,217 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
 
     Notes
     -----
-    Charts that stop (budget, early stop, stall) leave the batch as soon as at
-    most half of it is still running, so a batch never keeps evaluating the
-    networks of finished charts for long.
+    Each round is the body of Algorithm 1's loop for every running chart:
+    propose a step (line 9), evaluate
+    ``L(θ) = Σ_t A_t ‖J_t‖²_F (1 + q(det J_t)) + α(s) Σ_t [ε − det J_t]₊²`` and the
+    determinants at the trial (lines 6–8), refuse the trial of a chart that
+    flips a face (or trips a guard) and halve its step (lines 10–11), and
+    backpropagate only the accepted ones. Charts that stop (:class:`~neuraluv.solver.result.Stop`:
+    budget, early stop, stall, time) leave the batch as soon as at most half of
+    it is still running, so a batch never keeps evaluating the networks of
+    finished charts for long.
     """
-    dev = batch.X.device
-    B0, d = batch.B, batch.X.shape[2]
-    residual = batch.base is not None
-    net = dict(width=cfg.width, n_layers=cfg.n_layers, omega0=float(cfg.omega0))
-    theta = init_params(seeds, d, cfg, residual=residual, device=dev)
-    P = theta.shape[1]
-    timing = {"forward": 0.0, "objective": 0.0, "backward": 0.0, "optimiser": 0.0, "bookkeeping": 0.0}
-    sync = (lambda: torch.cuda.synchronize(dev)) if (profile and dev.type == "cuda") else (lambda: None)
-    clock = [time.perf_counter()]
+    run = _Run(batch, cfg, seeds, lr_scale=lr_scale, callback=callback, progress=progress, profile=profile)
+    while run.retire(deadline):
+        run.rounds += 1
+        trial = run.propose()                                    # 1. propose
+        th, u, new = run.evaluate(trial.theta, run.st.it + 1)    # 2. evaluate (at the next barrier weight)
+        acc = run.decide(new)                                    # 3. decide, per chart
+        run.merge(trial, th, u, new, acc)                        # 4. backpropagate the accepted, merge
+        run.adapt(acc)                                           # steps halved / regrown; charts that stop
+        run.record(acc, new, trial.lr)
+        run.report(acc)
+    return run.finish()
 
-    def tick(key):
-        sync()
+
+def _alpha(it, cfg):
+    """The barrier weight α(s), annealed exponentially from ``alpha_start`` to ``alpha_end`` (``(B,)``)."""
+    frac = torch.clamp(it / max(cfg.iterations, 1), 0.0, 1.0)
+    return cfg.alpha_start * torch.exp(frac * math.log(cfg.alpha_end / cfg.alpha_start))
+
+
+def _cosine(it, cfg, lr):
+    """Cosine learning rate from ``lr`` down to ``lr_min`` over ``iterations`` accepted steps (``(B,)``)."""
+    return cfg.lr_min + 0.5 * (lr - cfg.lr_min) * (1.0 + torch.cos(math.pi * torch.clamp(it / max(cfg.iterations, 1), 0.0, 1.0)))
+
+
+class _State:
+    """Per-chart tensors of a running optimisation (row ``i`` ↔ chart ``rows[i]``), compactable."""
+
+    def __init__(self, **tensors):
+        self.__dict__.update(tensors)
+
+    def select(self, keep):
+        for k, v in list(self.__dict__.items()):
+            if torch.is_tensor(v) and v.dim() > 0:
+                setattr(self, k, v[keep])
+
+
+@dataclass
+class _Trial:
+    """The point proposed for every chart of the batch in one round."""
+
+    theta: torch.Tensor          #: (B, P) parameters (a chart that is not running keeps its own)
+    lr: torch.Tensor             #: (B,) Adam's learning rate, or L-BFGS's step length along its direction
+    moments: tuple = None        #: Adam's ``(m1, m2, steps)`` after this step, kept if it is accepted
+
+
+class _Run:
+    """One :func:`optimise` call: the batch, every chart's state, and the steps of a round.
+
+    ``st`` holds the running charts' tensors (see :class:`_State`); a chart that
+    stops leaves it (:meth:`retire`) after its results are copied to ``out_u``,
+    ``out_theta`` and ``out_stop`` at its original row.
+    """
+
+    def __init__(self, batch, cfg, seeds, *, lr_scale, callback, progress, profile):
+        dev = batch.X.device
+        self.cfg, self.bt, self.d = cfg, batch, batch.X.shape[2]
+        self.callback, self.progress = callback, progress
+        self.net = dict(width=cfg.width, n_layers=cfg.n_layers, omega0=float(cfg.omega0))
+        self.lbfgs = cfg.optimizer == "lbfgs"
+        theta = init_params(seeds, self.d, cfg, residual=batch.base is not None, device=dev)
+        self.timing = dict.fromkeys(("forward", "objective", "backward", "optimiser", "bookkeeping"), 0.0)
+        self._sync = (lambda: torch.cuda.synchronize(dev)) if (profile and dev.type == "cuda") else (lambda: None)
+        self._clock = time.perf_counter()
+        # Algorithm 1, line 4: the warm-up (absolute mode only: a residual network already equals its base)
+        if batch.target is not None and cfg.warmup_iters > 0:
+            theta = _warmup(theta, batch, cfg, self.net)
+        self._notify("warmup_end", 0, theta)
+        self._start(theta, lr_scale)
+
+    def _start(self, theta, lr_scale):
+        """Evaluate the start of every chart (loss, gradient, flips) and set up the optimiser's state."""
+        B0, dev, cfg = self.bt.B, self.bt.X.device, self.cfg
+        f64 = dict(dtype=torch.float64, device=dev)
+        th, u, cur = self.evaluate(theta, torch.zeros(B0, **f64))
+        cur.loss.sum().backward()
+        self.tick("backward")
+        self.st = st = _State(
+            rows=torch.arange(B0, device=dev), theta=theta, g=flat_grad(th),
+            scale0=torch.ones(B0, **f64) if lr_scale is None else torch.as_tensor(np.asarray(lr_scale, float), **f64),
+            loss=cur.loss.detach(), flips=cur.flips, mind=cur.min_det.detach(),
+            best_key=torch.stack([cur.flips.to(torch.float64), cur.esd.detach()], 1), best_u=u.detach().clone(),
+            it=torch.zeros(B0, **f64), active=torch.ones(B0, dtype=torch.bool, device=dev),
+            stop=torch.full((B0,), int(Stop.RUNNING), dtype=torch.long, device=dev),
+            backtracks=torch.zeros(B0, dtype=torch.long, device=dev),
+            rejected=torch.zeros(B0, dtype=torch.long, device=dev), scale=torch.ones(B0, **f64),
+            best_ring=torch.full((B0, max(int(cfg.patience), 1)), float("inf"), **f64),
+        )
+        self.start_esd = cur.esd.detach().cpu().numpy()
+        self.n_back, self.rounds = 1, 0
+        if self.lbfgs:
+            self.mem = LBFGSMemory(B0, theta.shape[1], memory_length(cfg, self.bt.n), dtype=theta.dtype, device=dev)
+            st.dirn = torch.zeros_like(theta)          # the current search direction
+            st.gd = torch.zeros(B0, **f64)             # its slope g·d (the Armijo test's)
+            st.in_ls = torch.zeros(B0, dtype=torch.bool, device=dev)   # in a line search: keep the direction
+        else:
+            st.m1 = torch.zeros_like(theta)
+            st.m2 = torch.zeros_like(theta)
+            st.steps = torch.zeros(B0, **f64)
+            self.betas = tuple(float(x) for x in cfg.betas)
+        self.patience = max(int(cfg.patience), 1)
+        self.early_from = max(self.patience, int(cfg.early_after * cfg.iterations))
+        self.out_u = np.zeros((B0, self.bt.n, 2))
+        self.out_theta = torch.zeros(B0, theta.shape[1], dtype=theta.dtype, device=dev)
+        self.out_stop = np.full(B0, int(Stop.RUNNING), np.int64)
+        self.rec = TraceRecorder(B0, dev)
+        self.t0 = time.perf_counter()
+        self.tick("bookkeeping")
+
+    def tick(self, key):
+        """Add the time since the last tick to ``timing[key]``."""
+        self._sync()
         now = time.perf_counter()
-        timing[key] += now - clock[0]
-        clock[0] = now
+        self.timing[key] += now - self._clock
+        self._clock = now
 
-    # --- warm-up (absolute mode only: the residual network already equals its base)
-    if batch.target is not None and cfg.warmup_iters > 0:
-        theta = _warmup(theta, batch, cfg, net)
-    if callback is not None:
-        callback("warmup_end", 0, to_module(theta[0], d, cfg, None if batch.base is None else batch.base[0]))
-
-    n_it = cfg.iterations
-    lbfgs = cfg.optimizer == "lbfgs"
-    f64 = dict(dtype=torch.float64, device=dev)
-
-    def evaluate(th, it_eval, bt):
-        th = leaves(th, d, cfg.width, cfg.n_layers)
-        u = forward(th, bt.X, bt.base, mask=bt.mask, **net)
-        tick("forward")
-        o = chart_objective(u.reshape(-1, 2), bt.F, bt.dC_inv, bt.w, bt.face_chart, bt.B, _alpha(it_eval, cfg),
+    def evaluate(self, theta, it):
+        """UVs and the objective of every chart at ``theta (B, P)``, barrier weight ``α(it)`` (lines 6–8)."""
+        bt, cfg = self.bt, self.cfg
+        th = leaves(theta, self.d, cfg.width, cfg.n_layers)
+        u = forward(th, bt.X, bt.base, mask=bt.mask, **self.net)
+        self.tick("forward")
+        o = chart_objective(u.reshape(-1, 2), bt.F, bt.dC_inv, bt.w, bt.face_chart, bt.B, _alpha(it, cfg),
                             cfg.eps_J, cfg.eps)
-        tick("objective")
+        self.tick("objective")
         return th, u, o
 
-    zeros = torch.zeros(B0, **f64)
-    th, u, cur = evaluate(theta, zeros, batch)
-    cur.loss.sum().backward()
-    tick("backward")
-    st = _State(
-        rows=torch.arange(B0, device=dev), theta=theta, g=flat_grad(th),
-        scale0=torch.ones(B0, **f64) if lr_scale is None else torch.as_tensor(np.asarray(lr_scale, float), **f64),
-        loss=cur.loss.detach(), flips=cur.flips, mind=cur.min_det.detach(),
-        best_key=torch.stack([cur.flips.to(torch.float64), cur.esd.detach()], 1), best_u=u.detach().clone(),
-        it=torch.zeros(B0, **f64), active=torch.ones(B0, dtype=torch.bool, device=dev),
-        stop=torch.zeros(B0, dtype=torch.long, device=dev), backtracks=torch.zeros(B0, dtype=torch.long, device=dev),
-        rejected=torch.zeros(B0, dtype=torch.long, device=dev), scale=torch.ones(B0, **f64),
-        best_ring=torch.full((B0, max(int(cfg.patience), 1)), float("inf"), **f64),
-    )
-    start_esd = cur.esd.detach().cpu().numpy()
-    n_back = 1
-    if lbfgs:
-        mem = LBFGSMemory(B0, P, _history(cfg, batch), dtype=theta.dtype, device=dev)
-        st.dirn = torch.zeros_like(theta)
-        st.gd = torch.zeros(B0, **f64)
-        st.in_ls = torch.zeros(B0, dtype=torch.bool, device=dev)
-    else:
-        st.m1 = torch.zeros_like(theta)
-        st.m2 = torch.zeros_like(theta)
-        st.steps = torch.zeros(B0, **f64)
-        b1, b2 = (float(x) for x in cfg.betas)
-    pat = max(int(cfg.patience), 1)
-    early_from = max(pat, int(cfg.early_after * n_it))
-    # results of charts that left the batch, by original index
-    out_u = np.zeros((B0, batch.n, 2))
-    out_theta = torch.zeros(B0, P, dtype=theta.dtype, device=dev)
-    out_stop = np.zeros(B0, np.int64)
-    rec = _Recorder(B0, dev)
-    t0 = time.perf_counter()
-    rounds = 0
-    bt = batch
-    tick("bookkeeping")
-    while True:
+    def retire(self, deadline):
+        """Stop every chart at the deadline; drop the finished charts once at most half the batch runs.
+
+        Returns False when no chart is running.
+        """
+        st = self.st
         if deadline is not None and time.perf_counter() > deadline:
-            st.stop = torch.where(st.active, torch.full_like(st.stop, 3), st.stop)
-            st.active = torch.zeros_like(st.active)
+            self._finish(st.active, Stop.TIME)
         n_active = int(st.active.sum())
         if n_active == 0:
-            break
-        if n_active <= bt.B // 2:   # drop finished charts from the batch
+            return False
+        if n_active <= self.bt.B // 2:
             keep = torch.nonzero(st.active).squeeze(1)
-            gone = torch.nonzero(~st.active).squeeze(1)
-            _store(st, gone, out_u, out_theta, out_stop)
+            self._store(torch.nonzero(~st.active).squeeze(1))
             st.select(keep)
-            if lbfgs:
-                mem.select(keep)
-            bt = _subset(bt, keep.cpu().numpy())
-        B = bt.B
-        rounds += 1
-        # ---- propose a trial for every active chart
+            if self.lbfgs:
+                self.mem.select(keep)
+            self.bt = _subset(self.bt, keep.cpu().numpy())
+        return True
+
+    def propose(self):
+        """Step 1: a trial point for every running chart."""
         with torch.no_grad():
-            if lbfgs:
-                fresh = st.active & ~st.in_ls
-                gnorm = st.g.norm(dim=1).clamp_min(1e-30).to(torch.float64)
-                sd = -st.g * (cfg.lr * st.scale0 / gnorm).to(st.g.dtype)[:, None]     # scaled steepest descent
-                dnew = torch.where((mem.gamma > 0)[:, None], -mem.apply(st.g), sd)
-                gdn = _dot(st.g, dnew)
-                bad = (gdn >= 0) & fresh
-                if bool(bad.any()):  # not a descent direction: forget this chart's curvature pairs
-                    mem.reset(bad)
-                    dnew = torch.where(bad[:, None], sd, dnew)
-                    gdn = torch.where(bad, _dot(st.g, sd), gdn)
-                st.dirn = torch.where(fresh[:, None], dnew, st.dirn)
-                st.gd = torch.where(fresh, gdn, st.gd)
-                st.scale = torch.where(fresh, torch.ones_like(st.scale), st.scale)
-                trial = torch.where(st.active[:, None], st.theta + st.scale.to(st.theta.dtype)[:, None] * st.dirn, st.theta)
-                lr_used = st.scale
-            else:
-                lr_it = _cosine(st.it, cfg, cfg.lr * st.scale0) * st.scale
-                # Adam (PyTorch's formula): m ← β₁m + (1−β₁)g, v ← β₂v + (1−β₂)g², θ ← θ − lr·m̂/(√v̂ + 1e-8)
-                m1n = torch.lerp(st.m1, st.g, 1 - b1)
-                m2n = torch.lerp(st.m2, st.g * st.g, 1 - b2)
-                stn = st.steps + 1
-                bc1 = 1 - b1**stn
-                denom = m2n.sqrt().div_((1 - b2**stn).sqrt().to(st.g.dtype)[:, None]).add_(1e-8)
-                if B == 1:
-                    trial = torch.addcdiv(st.theta, m1n, denom, value=-float(lr_it[0] / bc1[0]))
-                else:
-                    upd = (lr_it / bc1).to(st.g.dtype)[:, None] * m1n / denom
-                    trial = torch.where(st.active[:, None], st.theta - upd, st.theta)
-                lr_used = lr_it
-        tick("optimiser")
-        # ---- evaluate it (forward; the loss at the next barrier weight)
-        th, u, new = evaluate(trial, st.it + 1, bt)
+            trial = self._propose_lbfgs() if self.lbfgs else self._propose_adam()
+        self.tick("optimiser")
+        return trial
+
+    def _propose_lbfgs(self):
+        """The chart's L-BFGS direction times its step; a chart not in a line search gets a new direction (step 1)."""
+        st, cfg, mem = self.st, self.cfg, self.mem
+        fresh = st.active & ~st.in_ls
+        gnorm = st.g.norm(dim=1).clamp_min(1e-30).to(torch.float64)
+        sd = -st.g * (cfg.lr * st.scale0 / gnorm).to(st.g.dtype)[:, None]     # scaled steepest descent
+        dnew = torch.where((mem.gamma > 0)[:, None], -mem.apply(st.g), sd)
+        gdn = row_dot(st.g, dnew)
+        bad = (gdn >= 0) & fresh
+        if bool(bad.any()):  # not a descent direction: forget this chart's curvature pairs
+            mem.reset(bad)
+            dnew = torch.where(bad[:, None], sd, dnew)
+            gdn = torch.where(bad, row_dot(st.g, sd), gdn)
+        st.dirn = torch.where(fresh[:, None], dnew, st.dirn)
+        st.gd = torch.where(fresh, gdn, st.gd)
+        st.scale = torch.where(fresh, torch.ones_like(st.scale), st.scale)
+        theta = torch.where(st.active[:, None], st.theta + st.scale.to(st.theta.dtype)[:, None] * st.dirn, st.theta)
+        return _Trial(theta, st.scale)
+
+    def _propose_adam(self):
+        """Adam's step at the cosine learning rate times the chart's step factor (step 1).
+
+        PyTorch's formula: ``m ← β₁m + (1−β₁)g``, ``v ← β₂v + (1−β₂)g²``, ``θ ← θ − lr·m̂/(√v̂ + 1e-8)``.
+        """
+        st, cfg = self.st, self.cfg
+        b1, b2 = self.betas
+        lr = _cosine(st.it, cfg, cfg.lr * st.scale0) * st.scale
+        m1 = torch.lerp(st.m1, st.g, 1 - b1)
+        m2 = torch.lerp(st.m2, st.g * st.g, 1 - b2)
+        steps = st.steps + 1
+        bc1 = 1 - b1**steps
+        denom = m2.sqrt().div_((1 - b2**steps).sqrt().to(st.g.dtype)[:, None]).add_(1e-8)
+        if self.bt.B == 1:
+            theta = torch.addcdiv(st.theta, m1, denom, value=-float(lr[0] / bc1[0]))
+        else:
+            upd = (lr / bc1).to(st.g.dtype)[:, None] * m1 / denom
+            theta = torch.where(st.active[:, None], st.theta - upd, st.theta)
+        return _Trial(theta, lr, (m1, m2, steps))
+
+    def decide(self, new):
+        """Step 3: which running charts accept their trial (``(B,)`` bool).
+
+        Refused: a non-finite loss; with ``cfg.reject``, more flipped faces than
+        before, the smallest det J falling below ``min(det_drop · before, ε)``
+        (``det_drop``), a loss rise above ``loss_rise`` (Adam) or no sufficient
+        decrease (L-BFGS's Armijo test). The loss is compared at the same α.
+        """
+        st, cfg = self.st, self.cfg
         with torch.no_grad():
             loss_new = new.loss.detach()
             cmp_new = new.stable.detach() + _alpha(st.it, cfg) * new.barrier.detach()   # at the same α as st.loss
@@ -447,195 +422,130 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
                 if cfg.det_drop > 0:
                     guard = new.min_det >= torch.clamp(cfg.det_drop * st.mind, max=cfg.eps)
                     ok &= guard | (st.flips > 0)
-                if lbfgs:
+                if self.lbfgs:
                     ok &= cmp_new <= st.loss + cfg.armijo * st.scale * st.gd
                 elif cfg.loss_rise > 0:
                     ok &= cmp_new <= st.loss * (1.0 + cfg.loss_rise)
             acc = st.active & ok
-            n_acc = int(acc.sum())
-            all_acc = n_acc == B
-        tick("bookkeeping")
-        if n_acc:
-            (new.loss * acc.to(new.loss.dtype)).sum().backward()
-            n_back += 1
-            tick("backward")
-            gnew = flat_grad(th)
+        self.tick("bookkeeping")
+        return acc
+
+    def merge(self, trial, th, u, new, acc):
+        """Step 4: backpropagate the accepted charts' losses (only when some chart accepted) and take their trials."""
+        n_acc = int(acc.sum())
+        if not n_acc:
+            return
+        (new.loss * acc.to(new.loss.dtype)).sum().backward()
+        self.n_back += 1
+        self.tick("backward")
+        g = flat_grad(th)
+        st = self.st
         with torch.no_grad():
-            if n_acc:
-                a1 = acc[:, None]
-                if lbfgs:
-                    mem.push(trial - st.theta, gnew - st.g, acc)
-                    st.in_ls = st.in_ls & ~acc
-                elif all_acc:
-                    st.m1, st.m2, st.steps = m1n, m2n, stn
-                else:
-                    st.m1 = torch.where(a1, m1n, st.m1)
-                    st.m2 = torch.where(a1, m2n, st.m2)
-                    st.steps = torch.where(acc, stn, st.steps)
-                if all_acc:
-                    st.theta, st.g = trial, gnew
-                else:
-                    st.theta = torch.where(a1, trial, st.theta)
-                    st.g = torch.where(a1, gnew, st.g)
-                st.loss = torch.where(acc, loss_new, st.loss)
-                st.flips = torch.where(acc, new.flips, st.flips)
-                st.mind = torch.where(acc, new.min_det.detach(), st.mind)
-                st.it = st.it + acc.to(st.it.dtype)
-                key = torch.stack([new.flips.to(torch.float64), new.esd.detach()], 1)
-                better = acc & ((key[:, 0] < st.best_key[:, 0]) | ((key[:, 0] == st.best_key[:, 0]) & (key[:, 1] < st.best_key[:, 1])))
-                if bool(better.any()):
-                    st.best_key = torch.where(better[:, None], key, st.best_key)
-                    st.best_u[better] = u.detach()[better]
+            every = n_acc == self.bt.B
+            a1 = acc[:, None]
+            if self.lbfgs:
+                self.mem.push(trial.theta - st.theta, g - st.g, acc)
+                st.in_ls = st.in_ls & ~acc
+            elif every:
+                st.m1, st.m2, st.steps = trial.moments
+            else:
+                m1, m2, steps = trial.moments
+                st.m1 = torch.where(a1, m1, st.m1)
+                st.m2 = torch.where(a1, m2, st.m2)
+                st.steps = torch.where(acc, steps, st.steps)
+            if every:
+                st.theta, st.g = trial.theta, g
+            else:
+                st.theta = torch.where(a1, trial.theta, st.theta)
+                st.g = torch.where(a1, g, st.g)
+            st.loss = torch.where(acc, new.loss.detach(), st.loss)
+            st.flips = torch.where(acc, new.flips, st.flips)
+            st.mind = torch.where(acc, new.min_det.detach(), st.mind)
+            st.it = st.it + acc.to(st.it.dtype)
+            # the best map so far: fewest flips, then lowest E_SD
+            key = torch.stack([new.flips.to(torch.float64), new.esd.detach()], 1)
+            better = acc & ((key[:, 0] < st.best_key[:, 0]) | ((key[:, 0] == st.best_key[:, 0]) & (key[:, 1] < st.best_key[:, 1])))
+            if bool(better.any()):
+                st.best_key = torch.where(better[:, None], key, st.best_key)
+                st.best_u[better] = u.detach()[better]
+
+    def adapt(self, acc):
+        """After the decision: halve the refused charts' steps (regrow Adam's accepted ones) and stop the charts
+        that stalled (more than ``max_backtracks`` refusals in a row), spent their ``iterations``, or stopped
+        improving (early stopping)."""
+        st, cfg = self.st, self.cfg
+        with torch.no_grad():
             rej = st.active & ~acc
             st.rejected = st.rejected + rej.long()
             st.backtracks = torch.where(acc, torch.zeros_like(st.backtracks), st.backtracks + rej.long())
-            if lbfgs:
+            if self.lbfgs:
                 st.in_ls = st.in_ls | rej
                 st.scale = torch.where(rej, st.scale * cfg.backtrack, st.scale)
             else:
                 st.scale = torch.where(acc, torch.clamp(st.scale * cfg.step_recover, max=1.0),
                                        torch.where(rej, st.scale * cfg.backtrack, st.scale))
-            stalled = rej & (st.backtracks > cfg.max_backtracks)
-            st.stop = torch.where(stalled, torch.full_like(st.stop, 2), st.stop)
-            st.active = st.active & ~stalled & ~(st.it >= n_it)
-            # early stopping: the best E_SD improved by less than tol over the last `patience` accepted steps
-            if cfg.early_stop and n_acc:
-                slot = (st.it.long() % pat)[:, None]
-                old = st.best_ring.gather(1, slot).squeeze(1)      # best E_SD `pat` accepted steps ago
-                st.best_ring.scatter_(1, slot, torch.where(acc, st.best_key[:, 1], old)[:, None])
-                es = (acc & st.active & (st.it >= early_from) & (st.best_key[:, 0] == 0)
-                      & ((old - st.best_key[:, 1]) <= cfg.tol * st.best_key[:, 1].abs()))
-                st.stop = torch.where(es, torch.ones_like(st.stop), st.stop)
-                st.active = st.active & ~es
-            rec.add(st.rows, acc, st.loss, new.esd.detach(), st.mind, st.flips, st.rejected, lr_used,
-                    time.perf_counter() - t0)
-        if callback is not None and bool(acc[0]):
-            callback("step", int(st.it[0]), to_module(st.theta[0], d, cfg, None if bt.base is None else bt.base[0]))
-        if progress is not None and bool(acc[0]):
-            progress.update(1)
+            self._finish(rej & (st.backtracks > cfg.max_backtracks), Stop.STALLED)
+            self._finish(st.active & (st.it >= cfg.iterations), Stop.BUDGET)
+            if cfg.early_stop and bool(acc.any()):
+                self._finish(self._plateau(acc), Stop.EARLY_STOP)
+
+    def _plateau(self, acc):
+        """Charts whose best E_SD (flip-free) improved by less than ``tol`` over their last ``patience`` accepted steps."""
+        st, cfg = self.st, self.cfg
+        slot = (st.it.long() % self.patience)[:, None]
+        old = st.best_ring.gather(1, slot).squeeze(1)      # best E_SD `patience` accepted steps ago
+        st.best_ring.scatter_(1, slot, torch.where(acc, st.best_key[:, 1], old)[:, None])
+        return (acc & st.active & (st.it >= self.early_from) & (st.best_key[:, 0] == 0)
+                & ((old - st.best_key[:, 1]) <= cfg.tol * st.best_key[:, 1].abs()))
+
+    def _finish(self, mask, reason):
+        """Stop the charts in ``mask (B,)`` for ``reason`` (a :class:`Stop`)."""
+        st = self.st
+        st.stop = torch.where(mask, torch.full_like(st.stop, int(reason)), st.stop)
+        st.active = st.active & ~mask
+
+    def record(self, acc, new, lr):
+        """The round's values of every chart into the trace."""
+        st = self.st
+        with torch.no_grad():
+            self.rec.add(st.rows, acc, st.loss, new.esd.detach(), st.mind, st.flips, st.rejected, lr,
+                         time.perf_counter() - self.t0)
+
+    def report(self, acc):
+        """The callback and the progress bar of a single chart, after each accepted step."""
+        st = self.st
+        if self.callback is not None and bool(acc[0]):
+            self._notify("step", int(st.it[0]), st.theta)
+        if self.progress is not None and bool(acc[0]):
+            self.progress.update(1)
             if int(st.it[0]) % 25 == 0:
-                progress.set_postfix(esd=f"{float(st.best_key[0, 1]):.4g}", min_det=f"{float(st.mind[0]):.3g}",
-                                     rej=int(st.rejected[0]))
-        tick("bookkeeping")
-    if callback is not None:
-        callback("end", int(st.it[0]), to_module(st.theta[0], d, cfg, None if bt.base is None else bt.base[0]))
-    _store(st, torch.arange(bt.B, device=dev), out_u, out_theta, out_stop)
-    names = {0: "budget", 1: "early_stop", 2: "stalled", 3: "time"}
-    return EngineResult(best_uv=out_u, theta=out_theta, traces=rec.traces(),
-                        stop=[names[int(s)] for s in out_stop], start_esd=start_esd,
-                        rounds=rounds, backward=n_back, timing=timing)
+                self.progress.set_postfix(esd=f"{float(st.best_key[0, 1]):.4g}", min_det=f"{float(st.mind[0]):.3g}",
+                                          rej=int(st.rejected[0]))
+        self.tick("bookkeeping")
 
+    def _notify(self, event, step, theta):
+        """``callback(event, step, model)`` with chart 0's network at ``theta[0]``."""
+        if self.callback is not None:
+            self.callback(event, step, to_module(theta[0], self.d, self.cfg, None if self.bt.base is None else self.bt.base[0]))
 
-def _store(st, idx, out_u, out_theta, out_stop):
-    """Copy the results of the charts at rows ``idx`` to the per-chart outputs."""
-    if len(idx) == 0:
-        return
-    orig = st.rows[idx].cpu().numpy()
-    n = st.best_u.shape[1]
-    out_u[orig, :n] = st.best_u[idx].cpu().numpy()
-    out_theta[st.rows[idx]] = st.theta[idx]
-    out_stop[orig] = st.stop[idx].cpu().numpy()
+    def _store(self, idx):
+        """Copy the results of the charts at rows ``idx`` to the per-chart outputs."""
+        st = self.st
+        if len(idx) == 0:
+            return
+        orig = st.rows[idx].cpu().numpy()
+        n = st.best_u.shape[1]
+        self.out_u[orig, :n] = st.best_u[idx].cpu().numpy()
+        self.out_theta[st.rows[idx]] = st.theta[idx]
+        self.out_stop[orig] = st.stop[idx].cpu().numpy()
 
-
-def _history(cfg, batch):
-    """L-BFGS memory for this batch: ``cfg.history``, fewer for batches of tiny charts.
-
-    The memory's cost per step is ``O(m·P)`` per chart whatever the chart's size,
-    while the network's is ``O(n·P)``: for charts of a few dozen vertices a full
-    memory would cost more than the network itself.
-    """
-    return int(min(cfg.history, max(5, batch.n // 4)))
-
-
-def _dot(a, b):
-    """Row-wise dot products ``(B,)`` in float64."""
-    return torch.linalg.vecdot(a, b).to(torch.float64)
-
-
-def _rowdots(A, x):
-    """``A[b] @ x[b]`` for every chart: ``(B, k, P)``, ``(B, P)`` → ``(B, k)``.
-
-    Written as ``xᵀ Aᵀ`` (a row times a transposed matrix), which the batched
-    GEMM runs an order of magnitude faster on the CPU than ``A x`` for these shapes.
-    """
-    return torch.bmm(x[:, None, :], A.transpose(1, 2))[:, 0]
-
-
-class LBFGSMemory:
-    """The curvature pairs of every chart, and ``H g`` in the compact form (Byrd, Nocedal & Schnabel 1994).
-
-    ``H g = γ g + S p₁ + γ Y p₂`` with ``[p₁; p₂] = M [Sᵀg; γYᵀg]`` and the
-    ``2m × 2m`` middle matrix built from ``R = triu(SᵀY)``, ``D = diag(SᵀY)`` and
-    ``YᵀY``: two batched products with the stored pairs per step (one to read
-    ``Sᵀg, Yᵀg``, one to form ``S p₁ + Y p₂``) and one per update, instead of the
-    two-loop recursion's ``4m`` small vector operations. One ring buffer of ``m``
-    slots serves all charts; a chart that did not move this round stores a zero
-    pair, which contributes nothing.
-    """
-
-    def __init__(self, B, P, m, *, dtype, device):
-        self.m = max(int(m), 1)
-        self.SY_vecs = torch.zeros(B, 2 * self.m, P, dtype=dtype, device=device)   # rows 0..m-1: s_i, m..2m-1: y_i
-        self.SY = torch.zeros(B, self.m, self.m, dtype=torch.float64, device=device)   # s_i · y_j
-        self.YY = torch.zeros_like(self.SY)                                            # y_i · y_j
-        self.valid = torch.zeros(B, self.m, dtype=torch.bool, device=device)
-        self.gamma = torch.zeros(B, dtype=torch.float64, device=device)                # 0: no pair yet
-        self.ptr = 0
-
-    def push(self, s, y, acc):
-        """Store the pair ``(s, y)`` of the charts in ``acc`` whose curvature ``s·y`` is positive."""
-        m, k = self.m, self.ptr
-        z = torch.zeros((), dtype=s.dtype, device=s.device)
-        self.SY_vecs[:, k] = 0
-        self.SY_vecs[:, m + k] = 0
-        dots = torch.stack([_rowdots(self.SY_vecs, s), _rowdots(self.SY_vecs, y)], 2).to(torch.float64)  # (B, 2m, 2)
-        ss = _dot(s, s)
-        sy = _dot(s, y)
-        yy = _dot(y, y)
-        good = acc & (sy > 1e-10 * torch.sqrt(yy * ss))
-        g1 = good[:, None].to(torch.float64)
-        self.SY_vecs[:, k] = torch.where(good[:, None], s, z)
-        self.SY_vecs[:, m + k] = torch.where(good[:, None], y, z)
-        self.SY[:, k, :] = dots[:, m:, 0] * g1                                  # s · y_j
-        self.SY[:, :, k] = dots[:, :m, 1] * g1                                  # s_j · y
-        self.SY[:, k, k] = sy * g1[:, 0]
-        self.YY[:, k, :] = dots[:, m:, 1] * g1                                  # y · y_j
-        self.YY[:, :, k] = dots[:, m:, 1] * g1
-        self.YY[:, k, k] = yy * g1[:, 0]
-        self.valid[:, k] = good
-        self.gamma = torch.where(good, sy / yy.clamp_min(1e-300), self.gamma)
-        self.ptr = (k + 1) % m
-
-    def select(self, keep):
-        """Keep only the charts ``keep`` (the batch was compacted)."""
-        for k in ("SY_vecs", "SY", "YY", "valid", "gamma"):
-            setattr(self, k, getattr(self, k)[keep])
-
-    def reset(self, mask):
-        """Forget every pair of the charts in ``mask``."""
-        self.SY_vecs[mask] = 0
-        self.SY[mask] = 0
-        self.YY[mask] = 0
-        self.valid[mask] = False
-        self.gamma = torch.where(mask, torch.zeros_like(self.gamma), self.gamma)
-
-    def apply(self, g):
-        """``H g`` for every chart (``(B, P)``); charts without pairs get ``γ g`` with γ = 0."""
-        m = self.m
-        o = torch.as_tensor([(self.ptr + j) % m for j in range(m)], device=g.device)  # oldest first
-        inv = torch.empty_like(o)
-        inv[o] = torch.arange(m, device=g.device)
-        gam = self.gamma[:, None]
-        ab = _rowdots(self.SY_vecs, g).to(torch.float64)                               # [Sᵀg; Yᵀg]
-        a = ab[:, :m][:, o]
-        b = gam * ab[:, m:][:, o]
-        SY = self.SY[:, o][:, :, o]
-        R = torch.triu(SY) + torch.diag_embed((~self.valid[:, o]).to(SY.dtype))        # empty slots: identity rows
-        u = torch.linalg.solve_triangular(R, a[:, :, None], upper=True)[:, :, 0]
-        t = torch.diagonal(SY, dim1=1, dim2=2) * u + gam * torch.bmm(self.YY[:, o][:, :, o], u[:, :, None])[:, :, 0] - b
-        p1 = torch.linalg.solve_triangular(R.transpose(1, 2), t[:, :, None], upper=False)[:, :, 0]
-        p = torch.cat([p1[:, inv], (-gam * u)[:, inv]], 1).to(g.dtype)                 # back to slot order
-        return gam.to(g.dtype) * g + torch.bmm(p[:, None, :], self.SY_vecs)[:, 0]
+    def finish(self):
+        """The callback's ``"end"`` and the :class:`EngineResult` of every chart."""
+        self._notify("end", int(self.st.it[0]), self.st.theta)
+        self._store(torch.arange(self.bt.B, device=self.bt.X.device))
+        return EngineResult(best_uv=self.out_u, theta=self.out_theta, traces=self.rec.traces(),
+                            stop=[Stop(int(s)) for s in self.out_stop], start_esd=self.start_esd,
+                            rounds=self.rounds, backward=self.n_back, timing=self.timing)
 
 
 def _warmup(theta, batch, cfg, net):
@@ -658,51 +568,3 @@ def _warmup(theta, batch, cfg, net):
             m2 = b2 * m2 + (1 - b2) * g * g
             theta = theta - cfg.warmup_lr / (1 - b1**s) * m1 / ((m2 / (1 - b2**s)).sqrt() + 1e-8)
     return theta.detach()
-
-
-class _Recorder:
-    """Per-round values of every chart, in preallocated chunks (one row per round, one column per chart).
-
-    Writing into buffers allocated once per 1,024 rounds, instead of keeping
-    small per-round tensors alive, keeps the heap unfragmented: large activations
-    freed every round can go back to the system (RSS stays flat).
-    """
-
-    FIELDS = (("acc", torch.bool), ("loss", torch.float64), ("esd", torch.float64), ("min_det", torch.float64),
-              ("flips", torch.long), ("rejected", torch.long), ("lr", torch.float64))
-    CHUNK = 1024
-
-    def __init__(self, B, device):
-        self.B, self.device = B, device
-        self.chunks, self.times, self.r = [], [], 0
-
-    def add(self, rows, acc, loss, esd, min_det, flips, rejected, lr, t):
-        k = self.r % self.CHUNK
-        if k == 0:
-            self.chunks.append({n: torch.zeros(self.CHUNK, self.B, dtype=dt, device=self.device) for n, dt in self.FIELDS})
-        c = self.chunks[-1]
-        full = len(rows) == self.B   # no chart has left the batch: rows are 0..B-1
-        for (n, _), v in zip(self.FIELDS, (acc, loss, esd, min_det, flips, rejected, lr)):
-            if full:
-                c[n][k].copy_(v)
-            else:
-                c[n][k, rows] = v.to(c[n].dtype)
-        self.times.append(t)
-        self.r += 1
-
-    def traces(self):
-        """One dict of lists per chart: the rounds where it accepted a step."""
-        keys = ("iter", "loss", "esd", "min_det", "flips", "rejected", "lr", "time")
-        if not self.r:
-            return [{k: [] for k in keys} for _ in range(self.B)]
-        cols = {n: torch.cat([c[n] for c in self.chunks])[: self.r].cpu().numpy() for n, _ in self.FIELDS}
-        t = np.asarray(self.times)
-        out = []
-        for b in range(self.B):
-            sel = np.flatnonzero(cols["acc"][:, b])
-            out.append({"iter": list(range(1, len(sel) + 1)), "loss": cols["loss"][sel, b].tolist(),
-                        "esd": cols["esd"][sel, b].tolist(), "min_det": cols["min_det"][sel, b].tolist(),
-                        "flips": cols["flips"][sel, b].astype(int).tolist(),
-                        "rejected": cols["rejected"][sel, b].astype(int).tolist(), "lr": cols["lr"][sel, b].tolist(),
-                        "time": t[sel].tolist()})
-        return out

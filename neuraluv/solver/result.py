@@ -2,10 +2,43 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import IntEnum
 
 import numpy as np
 
-__all__ = ["ChartResult"]
+__all__ = ["ChartResult", "Stop"]
+
+
+class Stop(IntEnum):
+    """Why a chart's optimisation ended (the engine keeps the codes in a tensor, one per chart).
+
+    ``BUDGET``: it took ``iterations`` accepted steps; ``EARLY_STOP``: its best
+    E_SD improved by less than ``tol`` over ``patience`` accepted steps;
+    ``STALLED``: more than ``max_backtracks`` halvings in a row were all
+    rejected; ``TIME``: the deadline passed. ``RUNNING`` while it runs.
+    Reports and :attr:`ChartResult.stop` hold the :attr:`label`.
+
+    Examples
+    --------
+    >>> Stop.EARLY_STOP.label, Stop.from_label("stalled"), int(Stop.TIME)
+    ('early_stop', <Stop.STALLED: 2>, 3)
+    """
+
+    RUNNING = -1
+    BUDGET = 0
+    EARLY_STOP = 1
+    STALLED = 2
+    TIME = 3
+
+    @property
+    def label(self):
+        """The name written in results and reports (``"budget"``, ``"early_stop"``, ``"stalled"``, ``"time"``)."""
+        return self.name.lower()
+
+    @classmethod
+    def from_label(cls, label):
+        """The member whose :attr:`label` is ``label``."""
+        return cls[label.upper()]
 
 
 @dataclass
@@ -22,7 +55,8 @@ class ChartResult:
         (``rejected`` is a running total).
     time : wall seconds for the whole solve (features, Tutte, attempts).
     seed : seed of the returned attempt; attempts : number of attempts made.
-    stop : why the returned attempt stopped (``"budget"``, ``"early_stop"``, ``"stalled"``).
+    stop : why the returned attempt stopped: the :attr:`Stop.label` of a :class:`Stop`
+        (``"budget"``, ``"early_stop"``, ``"stalled"``, ``"time"``; ``Stop.from_label`` reads it back).
     start : the valid start the residual network was attached to (``"tutte"``,
         or ``"tutte+slimN"`` when ``start_relax`` applied).
     attempt_metrics : metrics of every neural attempt, in order (ablations read

@@ -175,11 +175,12 @@ def network_floor(preps, cfg, device, reps=None):
     """
     import torch
 
-    from neuraluv.solver.chart import _batches
-    from neuraluv.solver.engine import flat_grad, forward, init_params, leaves, make_batch
+    from neuraluv.solver.chart import batch_plan
+    from neuraluv.solver.engine import make_batch
+    from neuraluv.solver.siren import flat_grad, forward, init_params, leaves
 
     total = 0.0
-    for group in _batches(preps, 60000, 512):
+    for group in batch_plan([len(p.X) for p in preps], 60000, 512):
         batch = make_batch([preps[i] for i in group], device=device)
         theta = init_params([0] * batch.B, batch.X.shape[2], cfg, device=device)
         net = dict(width=cfg.width, n_layers=cfg.n_layers, omega0=float(cfg.omega0))
@@ -227,14 +228,14 @@ def _combine(metrics, preps):
 
 def _time_preset(preps, cfg, device, max_seconds):
     """End-to-end solve of these prepared charts with ``cfg`` (projected when over ``max_seconds``)."""
-    from neuraluv.solver.chart import _batches
+    from neuraluv.solver.chart import batch_plan
     from neuraluv.solver.engine import make_batch, optimise
 
     res = {"rounds": 0, "iterations": 0, "timing": {}, "projected": False}
     t0 = time.perf_counter()
     deadline = t0 + max_seconds if max_seconds else None
     metrics, its, stops = [], [], []
-    for group in _batches(preps, 60000, 512):
+    for group in batch_plan([len(p.X) for p in preps], 60000, 512):
         batch = make_batch([preps[i] for i in group], residual=cfg.residual and cfg.init == "tutte", device=device)
         r = optimise(batch, cfg, [0] * batch.B, deadline=deadline, profile=True)
         res["rounds"] += r.rounds
@@ -247,7 +248,7 @@ def _time_preset(preps, cfg, device, max_seconds):
             uv = r.best_uv[k, : len(p.X)] * p.scale
             metrics.append((i, distortion_metrics(p.V, p.F, uv)))
             its.append(len(r.traces[k]["iter"]))
-            stops.append(r.stop[k])
+            stops.append(r.stop[k].label)
     res["solve"] = time.perf_counter() - t0
     res["iterations"] = int(max(its)) if its else 0
     metrics = [m for _, m in sorted(metrics, key=lambda x: x[0])]
