@@ -221,7 +221,7 @@ def test_bench_runner_writes_table(tmp_path):
 
 @pytest.mark.slow
 def test_trajectory_probe_rows_correlations_and_claims():
-    from neuraluv_paper.bench.ntk import trajectory_probe
+    from neuraluv_paper.bench.ntk_trajectory import trajectory_probe
 
     pr = trajectory_probe(2, (20, 2000), "test", 10, samples=24, device="cpu", show_progress=False, sources=["sphere"])
     assert pr["charts"] == 2 and len(pr["runs"]) == 4  # recipe + random absolute init per chart

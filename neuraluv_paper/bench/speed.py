@@ -24,7 +24,9 @@ its end-to-end time is *projected* from the measured iterations and marked so.
 (network width and depth, ω₀, optimiser, budget) on the compact charts and
 writes ``pareto.{csv,md,png}`` with the paper's Pareto points and SLIM's.
 
-Size: three related runners (the speed table, the Pareto study, atlas throughput) share the chart set, the timing helpers and the SLIM reference; splitting them would split those.
+The Pareto study (``--pareto``) is :mod:`~neuraluv_paper.bench.speed_pareto`, the atlas throughput
+(``--atlas``) :mod:`~neuraluv_paper.bench.speed_atlas`; this module holds the chart set and the timing
+helpers they share.
 """
 from __future__ import annotations
 
@@ -35,12 +37,10 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv_paper.bench import paper_values as PV
-from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table,
+from neuraluv_paper.bench.provenance import (BenchOutput, print_report, command_line, fmt_num, machine_info, markdown_table,
                                              save_figure, write_csv, write_markdown)
 
-__all__ = ["bench", "pareto", "atlas_timing", "add_arguments", "run", "speed_charts", "grown_disk", "network_floor",
-           "peak_rss_mb"]
+__all__ = ["bench", "add_arguments", "run", "speed_charts", "grown_disk", "network_floor", "peak_rss_mb", "slim_reference"]
 
 #: The rows of the speed table: (name, how to build it).
 CHARTS = ["camel", "hand", "bob", "xatlas-100", "xatlas-1k", "disk-10k", "disk-50k"]
@@ -209,7 +209,7 @@ def network_floor(preps, cfg, device, reps=None):
     return total
 
 
-def _slim(preps, iterations):
+def slim_reference(preps, iterations):
     """SLIM from each chart's own start (the solver's Tutte / un-crushed map); (seconds, area-weighted E_SD, flips)."""
     from neuraluv.metrics import distortion_metrics
     from neuraluv.relax import slim_relax
@@ -304,8 +304,8 @@ def bench(charts=None, presets=None, *, quick=False, output="results/speed", dev
             per_it = sum(split.values())
             key = preps[0].start
             if key not in slim_done:
-                s100 = _slim(preps, 100)
-                s1k = _slim(preps, 10 if quick else 1000)
+                s100 = slim_reference(preps, 100)
+                s1k = slim_reference(preps, 10 if quick else 1000)
                 slim_done[key] = (s100, s1k)
             s100, s1k = slim_done[key]
             wall = t_prep + (r["solve_projected"] if r["projected"] else r["solve"])
@@ -389,246 +389,6 @@ def _figure(rows, path):
 
 # --------------------------------------------------------------------------- the fast preset's Pareto study
 
-#: The designs compared for ``fast``: overrides of the ``paper`` preset (its recipe: LBO features, Tutte
-#: residual start, C² objective + barrier, validity-checked steps). The paper's network comes first.
-DEFAULT_GRID = [
-    {"label": "paper 5x256 w15 Adam", "iterations": 1500},
-    {"label": "4x64 w15 Adam", "width": 64, "n_layers": 4, "iterations": 3000},
-    {"label": "4x64 w45 Adam lr2e-3", "width": 64, "n_layers": 4, "omega0": 45.0, "lr": 2e-3, "step_recover": 1.1,
-     "iterations": 3000},
-    {"label": "4x64 w15 L-BFGS", "width": 64, "n_layers": 4, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-    {"label": "4x64 w30 L-BFGS", "width": 64, "n_layers": 4, "omega0": 30.0, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-    {"label": "4x64 w45 L-BFGS", "width": 64, "n_layers": 4, "omega0": 45.0, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-    {"label": "4x64 w60 L-BFGS", "width": 64, "n_layers": 4, "omega0": 60.0, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-    {"label": "4x64 w60 L-BFGS m10", "width": 64, "n_layers": 4, "omega0": 60.0, "optimizer": "lbfgs", "lr": 1e-2, "history": 10,
-     "iterations": 3000},
-    {"label": "4x48 w60 L-BFGS", "width": 48, "n_layers": 4, "omega0": 60.0, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-    {"label": "4x96 w60 L-BFGS", "width": 96, "n_layers": 4, "omega0": 60.0, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-    {"label": "3x64 w60 L-BFGS", "width": 64, "n_layers": 3, "omega0": 60.0, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-    {"label": "5x64 w60 L-BFGS", "width": 64, "n_layers": 5, "omega0": 60.0, "optimizer": "lbfgs", "lr": 1e-2, "iterations": 3000},
-]
-PARETO_BUDGETS = (100, 250, 500, 750, 1000, 1500, 2000, 3000)
-PARETO_MESHES = ("camel", "hand", "bob")
-
-
-def pareto(grid=None, meshes=PARETO_MESHES, *, output="results/speed", device="cpu", budgets=PARETO_BUDGETS,
-           quick=False, argv=None, show_progress=True):
-    """E_SD against time of candidate ``fast`` designs on the compact charts (``pareto.{csv,md,png}``).
-
-    Every design runs once per chart with early stopping off; the E_SD after
-    ``k`` accepted steps (the best so far) and the wall time to reach it
-    (features and start included) give one point per budget ``k``. SLIM-100 and
-    SLIM-1k from the same starts are run alongside.
-    """
-    from neuraluv import datasets
-    from neuraluv.jacobian import local_frames
-    from neuraluv.solver.chart import prepare_chart, solve_charts
-    from neuraluv.solver.config import get_config
-    from neuraluv.solver.device import resolve_device
-
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
-    dev = resolve_device(device)
-    grid = [dict(g) for g in (grid or DEFAULT_GRID)]
-    if quick:
-        grid = [dict(g, iterations=min(g.get("iterations", 100), 60)) for g in grid[3:5]]
-        meshes, budgets = ("glove",), (20, 60)
-    machine = machine_info(dev)
-    charts = {m: datasets.load_charts(m) for m in meshes}
-    rows = []
-    for m, cs in charts.items():
-        preps = [prepare_chart(V, F, "paper") for V, F in cs]
-        for its in (10, 100) if quick else (100, 1000):
-            dt, esd, flips = _slim(preps, its)
-            rows.append({"design": f"SLIM-{its if its < 1000 else '1k'}", "mesh": m, "iterations": its, "esd": esd,
-                         "time": dt, "flips": flips})
-    for spec in grid:
-        label = spec.pop("label")
-        cfg = get_config("paper", early_stop=False, **spec)
-        for m, cs in charts.items():
-            t = time.perf_counter()
-            rs = solve_charts(cs, cfg, device=dev)
-            wall = time.perf_counter() - t
-            w = np.array([local_frames(V, F)[1].sum() for V, F in cs])
-            solve = max((r.trace["time"][-1] if r.trace["time"] else 0.0) for r in rs)
-            prep = wall - solve
-            for k in budgets:
-                if k > cfg.iterations:
-                    continue
-                vals, tk = [], 0.0
-                for r in rs:
-                    e = r.trace["esd"][:k]
-                    vals.append(min(e) if e else float("nan"))
-                    if r.trace["time"]:
-                        tk = max(tk, r.trace["time"][min(k, len(r.trace["time"])) - 1])
-                rows.append({"design": label, "mesh": m, "iterations": k, "esd": float(np.dot(vals, w) / w.sum()),
-                             "time": prep + tk, "flips": sum(r.metrics["flips"] for r in rs),
-                             **{f"cfg_{a}": b for a, b in spec.items()}})
-            if show_progress:
-                print(f"pareto {label:24s} {m:6s} E_SD {rows[-1]['esd']:.4f} after {rows[-1]['iterations']} its, "
-                      f"{wall:6.1f}s", flush=True)
-    cmd = command_line("speed") if argv is None else "neuraluv " + " ".join(argv)
-    files = [write_csv(out / "pareto.csv", rows)]
-    md = _pareto_markdown(rows, list(charts))
-    files.append(write_markdown(out / "pareto.md", "The fast preset's Pareto study: E_SD against time", md,
-                                command=cmd, machine=machine))
-    files.append(_pareto_figure(rows, list(charts), out / "pareto.png"))
-    return BenchOutput(name="pareto-fast", rows=rows, markdown=md, files=files)
-
-
-def _median_rows(rows, meshes):
-    """Per (design, iterations): the median E_SD and median time over the meshes."""
-    out = {}
-    for r in rows:
-        out.setdefault((r["design"], r["iterations"]), {})[r["mesh"]] = r
-    med = []
-    for (design, k), by in out.items():
-        if set(by) >= set(meshes):
-            med.append({"design": design, "iterations": k, "esd": float(np.median([by[m]["esd"] for m in meshes])),
-                        "time": float(np.median([by[m]["time"] for m in meshes])),
-                        "per_mesh": {m: (by[m]["esd"], by[m]["time"]) for m in meshes}})
-    return med
-
-
-def _pareto_markdown(rows, meshes):
-    med = _median_rows(rows, meshes)
-    head = ["design", "iterations", "median E_SD", "median time (s)"] + [f"{m} E_SD (s)" for m in meshes]
-    body = [[r["design"], r["iterations"], f"{r['esd']:.3f}", f"{r['time']:.2f}"]
-            + [f"{r['per_mesh'][m][0]:.3f} ({r['per_mesh'][m][1]:.1f})" for m in meshes] for r in med]
-    paper = [[f"paper (CUDA), compact / {k}", k, f"{v['median_esd']:.2f}", f"{v['median_time']:.2f}"] + ["—"] * len(meshes)
-             for (s, k), v in sorted(PV.TABLE7.items()) if s == "compact"]
-    front = _front(med)
-    text = [markdown_table(head, body), "", "The paper's compact-chart Pareto points (Table 7, CUDA GPU; the median over "
-            "Hand, Bob and Camel):", "", markdown_table(head, paper), "",
-            "Pareto front on this machine (no design is both faster and lower in median E_SD): "
-            + ", ".join(f"{r['design']} @ {r['iterations']} ({r['esd']:.3f} in {r['time']:.1f}s)" for r in front) + "."]
-    return "\n".join(text)
-
-
-def _front(med):
-    pts = sorted(med, key=lambda r: (r["time"], r["esd"]))
-    front, best = [], float("inf")
-    for r in pts:
-        if r["esd"] < best - 1e-12:
-            front.append(r)
-            best = r["esd"]
-    return front
-
-
-def _pareto_figure(rows, meshes, path):
-    import matplotlib.pyplot as plt
-
-    med = _median_rows(rows, meshes)
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
-    designs = list(dict.fromkeys(r["design"] for r in med))
-    for d in designs:
-        pts = sorted((r for r in med if r["design"] == d), key=lambda r: r["iterations"])
-        style = dict(marker="s", ms=7, ls="none") if d.startswith("SLIM") else dict(marker="o", ms=3)
-        ax.plot([p["time"] for p in pts], [p["esd"] for p in pts], label=d, **style)
-    pp = [v for (s, k), v in sorted(PV.TABLE7.items()) if s == "compact"]
-    ax.plot([v["median_time"] for v in pp], [v["median_esd"] for v in pp], "k*--", ms=9, label="paper Table 7 (CUDA)")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("median wall time (s), features and start included")
-    ax.set_ylabel(f"median E_SD over {', '.join(meshes)}")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=6.5, ncol=2)
-    fig.tight_layout()
-    return save_figure(fig, path, dpi=110)
-
-
-# --------------------------------------------------------------------------- atlas throughput
-
-ATLAS_MESHES = ["cow", "nefertiti", "ogre"]
-
-
-def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=False, argv=None, show_progress=True,
-                 extra=()):
-    """``neuraluv atlas`` with its defaults, one process per asset, timed end to end (``atlas.{csv,md}``).
-
-    Each asset is written to an OBJ first (the generated set as
-    :func:`neuraluv.datasets.generated.generated_set` makes it); the verdict is
-    the command's own read-back validation of the file it wrote (coverage,
-    flips, overlaps, padding), taken from its JSON report.
-    """
-    import subprocess
-    import sys
-    import tempfile
-
-    from neuraluv import datasets
-    from neuraluv.datasets.generated import generated_asset
-    from neuraluv.io import write_obj
-
-    out = Path(output)
-    out.mkdir(parents=True, exist_ok=True)
-    machine = machine_info("cpu")
-    meshes = list(meshes or (["cow"] if quick else ATLAS_MESHES))
-    n_generated = min(n_generated, 3) if quick else n_generated
-    rows = []
-    with tempfile.TemporaryDirectory(prefix="neuraluv_atlas_timing_") as tmp:
-        tmp = Path(tmp)
-        inputs = []
-        for m in meshes:
-            if datasets.available(m):
-                inputs.append((m, "registry", datasets.fetch(m, download=False)))
-        for i in range(n_generated):
-            V, F, _ = generated_asset(i)
-            p = tmp / f"generated_{i:03d}.obj"
-            write_obj(p, V, F, np.zeros((len(V), 2)))
-            inputs.append((p.stem, "generated", p))
-        for name, kind, path in inputs:
-            res_obj, rep = tmp / f"{name}_atlas.obj", tmp / f"{name}_report.json"
-            cmd = [sys.executable, "-m", "neuraluv", "atlas", str(path), "-o", str(res_obj), "--report", str(rep), "--quiet",
-                   *extra]
-            t = time.perf_counter()
-            pr = subprocess.run(cmd, capture_output=True, text=True)
-            out_text, err_text = pr.stdout, pr.stderr
-            wall = time.perf_counter() - t
-            row = {"asset": name, "kind": kind, "exit": pr.returncode, "wall_s": wall, "peak_rss_mb": float("nan")}
-            if rep.exists():
-                r = json.loads(rep.read_text())
-                b, t_ = r["readback"], r["totals"]
-                row["peak_rss_mb"] = float(r.get("peak_memory_mb", float("nan")))
-                row.update({"faces": b["faces"], "covered": b["covered_faces"], "flips": b["flips"],
-                            "overlaps": b["overlapping_pairs"], "padding_violations": b["padding_violations"],
-                            "ok": r["ok"], "charts": t_["charts"], "neural_share": t_["neural_share"],
-                            "exact_share": t_["exact_share"], "fallback_share": t_["fallback_share"],
-                            "atlas_s": r["info"]["time"], **{f"t_{k}": v for k, v in r["info"]["timings"].items()}})
-            else:
-                row.update({"ok": False, "error": (err_text or out_text).strip()[-200:]})
-            rows.append(row)
-            if show_progress:
-                print(f"atlas {name:16s} {row.get('faces', 0):7d} faces {wall:7.1f}s ok={row.get('ok')} "
-                      f"flips={row.get('flips')} overlaps={row.get('overlaps')} peak {row['peak_rss_mb']:.0f} MB", flush=True)
-    gen = [r for r in rows if r["kind"] == "generated"]
-    head = ["asset", "faces", "wall s", "peak MB", "charts", "neural / exact / fallback faces", "flips", "overlaps",
-            "coverage", "ok"]
-    body = [[r["asset"], f"{r.get('faces', 0):,}", f"{r['wall_s']:.1f}", f"{r['peak_rss_mb']:.0f}", r.get("charts", "—"),
-             f"{100 * r.get('neural_share', 0):.1f} / {100 * r.get('exact_share', 0):.1f} / {100 * r.get('fallback_share', 0):.1f}%",
-             r.get("flips", "—"), r.get("overlaps", "—"),
-             f"{r.get('covered', 0)}/{r.get('faces', 0)}", "yes" if r.get("ok") else "**no**"]
-            for r in rows if r["kind"] != "generated"]
-    if gen:
-        w = [r["wall_s"] for r in gen]
-        body.append([f"{len(gen)} generated assets (median)", f"{int(np.median([r.get('faces', 0) for r in gen])):,}",
-                     f"{np.median(w):.1f} (max {max(w):.1f})", f"{max(r['peak_rss_mb'] for r in gen):.0f} (max)",
-                     int(np.median([r.get("charts", 0) for r in gen])),
-                     f"{100 * np.median([r.get('neural_share', 0) for r in gen]):.1f} / "
-                     f"{100 * np.median([r.get('exact_share', 0) for r in gen]):.1f} / "
-                     f"{100 * np.median([r.get('fallback_share', 0) for r in gen]):.1f}%",
-                     sum(r.get("flips", 0) or 0 for r in gen), sum(r.get("overlaps", 0) or 0 for r in gen),
-                     f"{sum(r.get('covered', 0) for r in gen)}/{sum(r.get('faces', 0) for r in gen)}",
-                     f"{sum(bool(r.get('ok')) for r in gen)}/{len(gen)}"])
-    md = "\n".join([markdown_table(head, body), "",
-                    "Each row is one `neuraluv atlas IN -o OUT.obj --report R.json` process with default options "
-                    "(preset `fast`), timed from start to exit; *peak MB* is the process's peak resident memory; "
-                    "flips, overlaps, coverage and padding are the command's validation of the OBJ it wrote, read back."])
-    cmd = command_line("speed") if argv is None else "neuraluv " + " ".join(argv)
-    files = [write_csv(out / "atlas.csv", rows),
-             write_markdown(out / "atlas.md", "Atlas throughput: `neuraluv atlas` with defaults", md, command=cmd,
-                            machine=machine)]
-    return BenchOutput(name="atlas-speed", rows=rows, markdown=md, files=files)
-
 
 def add_arguments(p):
     """``bench speed`` options beyond the shared ones."""
@@ -644,21 +404,17 @@ def add_arguments(p):
 
 
 def run(args):
-    """CLI entry point."""
+    """CLI entry point: the speed table, or with ``--atlas`` / ``--pareto`` the atlas throughput / the Pareto study."""
     if args.atlas:
-        res = atlas_timing(args.meshes, args.n_generated, output=args.output, quick=args.quick,
-                           show_progress=not args.quiet)
-        print(res.markdown)
-        print("wrote " + ", ".join(str(f) for f in res.files))
-        return 0
+        from neuraluv_paper.bench.speed_atlas import atlas_timing
+
+        return print_report(atlas_timing(args.meshes, args.n_generated, output=args.output, quick=args.quick,
+                                         show_progress=not args.quiet))
     if args.pareto:
-        res = pareto(output=args.output, device=args.device, quick=args.quick, show_progress=not args.quiet)
-        print(res.markdown)
-        print("wrote " + ", ".join(str(f) for f in res.files))
-        return 0
-    res = bench(args.charts or args.meshes, args.presets, quick=args.quick, output=args.output, device=args.device,
-                max_seconds=args.max_seconds, show_progress=not args.quiet)
-    print(res.markdown)
-    print("wrote " + ", ".join(str(f) for f in res.files))
-    return 0
+        from neuraluv_paper.bench.speed_pareto import pareto
+
+        return print_report(pareto(output=args.output, device=args.device, quick=args.quick,
+                                   show_progress=not args.quiet))
+    return print_report(bench(args.charts or args.meshes, args.presets, quick=args.quick, output=args.output,
+                              device=args.device, max_seconds=args.max_seconds, show_progress=not args.quiet))
 
