@@ -45,6 +45,21 @@ def write_claims_page(book: Path = BOOK) -> bool:
     return True
 
 
+def write_results_index(book: Path = BOOK) -> bool:
+    """Regenerate the report index of ``docs/RESULTS.md`` (``neuraluv_paper.claims.results_index``); True when it changed."""
+    sys.path.insert(0, str(book.parent))
+    from neuraluv_paper.claims import INDEX_BEGIN, INDEX_END, results_index
+
+    doc = book.parent / "docs" / "RESULTS.md"
+    text = doc.read_text(encoding="utf-8")
+    head, rest = text.split(INDEX_BEGIN, 1)
+    new = head + INDEX_BEGIN + "\n" + results_index() + "\n" + INDEX_END + rest.split(INDEX_END, 1)[1]
+    if new == text:
+        return False
+    doc.write_text(new, encoding="utf-8")
+    return True
+
+
 def sync_notebooks(src_dir: Path, dest_dir: Path) -> list[Path]:
     """Mirror ``src_dir/*.ipynb`` into ``dest_dir`` (stale copies removed); returns the copies."""
     dest_dir.mkdir(parents=True, exist_ok=True)
@@ -115,6 +130,8 @@ def main(argv=None) -> int:
 
     if write_claims_page():
         print("book/claims.md regenerated from results/ (commit it)", flush=True)
+    if write_results_index():
+        print("docs/RESULTS.md's report index regenerated from results/ (commit it)", flush=True)
     if a.output is not None:
         out = a.output.resolve()
         src = stage(out / "src")

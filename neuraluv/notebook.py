@@ -25,6 +25,8 @@ import warnings
 
 import numpy as np
 
+from neuraluv import datasets
+
 __all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "quiet_environment"]
 
 #: Name of the environment variable that selects paper-scale runs.
@@ -176,8 +178,6 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
     >>> name, V.shape, F.shape
     ('disk', (19, 3), (24, 3))
     """
-    from neuraluv import datasets
-
     def _quick():
         if quick_kwargs:
             return datasets.procedural(quick, **quick_kwargs)

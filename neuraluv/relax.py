@@ -8,6 +8,7 @@ when a Tutte map is too crushed for first-order optimisation to leave it.
 """
 from __future__ import annotations
 
+import igl
 import numpy as np
 
 from neuraluv.jacobian import jacobians, local_frames
@@ -17,8 +18,6 @@ __all__ = ["slim_relax", "slim_relax_until", "slim_relax_while"]
 
 
 def _slim_data(V, F, UV0):
-    import igl
-
     return igl.slim_precompute(np.asfortranarray(V, dtype=np.float64), np.asfortranarray(F, dtype=np.int32),
                                np.asfortranarray(UV0, dtype=np.float64), igl.SYMMETRIC_DIRICHLET,
                                np.zeros(0, np.int32), np.zeros((0, 2), order="F"), 0.0)
@@ -54,8 +53,6 @@ def slim_relax(V, F, UV0, iterations=20):
     >>> m1["flips"], bool(m1["esd"] < m0["esd"])
     (0, True)
     """
-    import igl
-
     uv = igl.slim_solve(_slim_data(V, F, UV0), int(iterations))
     return np.ascontiguousarray(np.asarray(uv)[:, :2])
 
@@ -101,8 +98,6 @@ def slim_relax_until(V, F, UV0, min_det, max_iterations=100, *, frames=None):
     >>> its, bool(face_dets(V, F, UV).min() >= 0.05)
     (1, True)
     """
-    import igl
-
     F = np.asarray(F, np.int64)
     dC_inv = (local_frames(V, F) if frames is None else frames)[0]
 
@@ -153,8 +148,6 @@ def slim_relax_while(V, F, UV0, accept, max_iterations=20):
     >>> bool(distortion_metrics(V, F, UV)["esd"] > 4.05), its < 20
     (True, True)
     """
-    import igl
-
     UV = np.ascontiguousarray(np.asarray(UV0, float)[:, :2])
     data, done = _slim_data(V, F, UV), 0
     for _ in range(int(max_iterations)):

@@ -6,6 +6,7 @@ eigenfunctions, each scaled to comparable variance (Sec. 4).
 """
 from __future__ import annotations
 
+import igl
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
@@ -35,8 +36,6 @@ def cotangent_laplacian(V, F):
     ``L_ij = ½ (cot α_ij + cot β_ij)`` for an edge ``ij`` with opposite angles
     ``α_ij, β_ij``; ``L_ii = −Σ_j L_ij`` (Pinkall & Polthier 1993).
     """
-    import igl
-
     return sp.csc_matrix(igl.cotmatrix(np.ascontiguousarray(V, dtype=np.float64), np.ascontiguousarray(F, dtype=np.int64)))
 
 
@@ -63,8 +62,6 @@ def laplacian(V, F):
     >>> bool(abs(L.sum(axis=1)).max() < 1e-12)
     True
     """
-    import igl
-
     V = np.ascontiguousarray(V, dtype=np.float64)
     F = np.ascontiguousarray(F, dtype=np.int64)
     M = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI)

@@ -6,8 +6,9 @@ measures those properties and says, in words, why a chart fails the test.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, asdict, field
+from dataclasses import asdict, dataclass, field
 
+import igl
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
@@ -207,8 +208,6 @@ def boundary_loop(F, *, oriented=False):
     >>> boundary_loop(F).tolist(), boundary_loop(F[:, ::-1], oriented=True).tolist()
     ([0, 1, 2, 3], [0, 3, 2, 1])
     """
-    import igl
-
     F = np.ascontiguousarray(F, dtype=np.int64)
     bnd = np.asarray(igl.boundary_loop(F), np.int64)
     if oriented and len(bnd) >= 2:
@@ -228,8 +227,6 @@ def boundary_loops(F):
     >>> [sorted(L.tolist()) for L in boundary_loops(F)]
     [[0, 1, 2], [3, 4, 5]]
     """
-    import igl
-
     F = np.ascontiguousarray(F, dtype=np.int64)
     if len(F) == 0:
         return []

@@ -13,6 +13,7 @@ import scipy.sparse.linalg
 
 from neuraluv.errors import TopologyError
 from neuraluv.jacobian import jacobians, local_frames
+from neuraluv.spectral import cotangent_laplacian
 from neuraluv.topology import boundary_loop
 
 __all__ = ["circle_boundary", "tutte"]
@@ -103,7 +104,6 @@ def tutte(V, F, *, weights="uniform", bnd=None, frames=None):
         W.data[:] = 1.0
         L = (W - sp.diags(np.asarray(W.sum(axis=1)).ravel())).tocsr()
     elif weights == "cotangent":
-        from neuraluv.spectral import cotangent_laplacian
 
         L = cotangent_laplacian(V, F).tocsr()
     else:

@@ -41,7 +41,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.csgraph
 import torch
+from torch.func import functional_call, jacrev, vmap
 
+from neuraluv.solver.config import get_config
 
 __all__ = [
     "farthest_point_sampling",
@@ -160,7 +162,6 @@ def chart_inputs(V, F, k=16, n_eig=16):
     ((61, 5), (61, 5))
     """
     from neuraluv.solver.chart import prepare_chart
-    from neuraluv.solver.config import get_config
 
     prep = prepare_chart(V, F, get_config("paper", k=k, start_relax=0), check=False, n_eig=max(k, n_eig))
     return prep.X, prep.eig
@@ -203,8 +204,6 @@ def ntk_gram(model, X):
     >>> T.shape, bool(np.allclose(T, T.T)), bool(np.linalg.eigvalsh(T).min() > -1e-6)
     ((5, 5), True, True)
     """
-    from torch.func import functional_call, jacrev, vmap
-
     params = {n: p.detach() for n, p in model.named_parameters()}
     if not params:
         raise ValueError("model has no parameters")
@@ -428,7 +427,6 @@ def make_probe(V, F, k=16, *, n_samples=256, r_max=16, start=0):
     ((4,), True)
     """
     from neuraluv.solver.chart import prepare_chart
-    from neuraluv.solver.config import get_config
 
     prep = prepare_chart(V, F, get_config("paper", k=k, start_relax=0), check=False, n_eig=max(k, r_max))
     X, phi = prep.X, prep.eig[1]

@@ -84,3 +84,14 @@ def test_chapter_selectors_match_committed_claims():
 def test_book_claims_page_is_current():
     page = ROOT / "book" / "claims.md"
     assert page.read_text(encoding="utf-8") == nbhelp.claims_page(), "regenerate it: python book/build.py (or write claims_page())"
+
+
+@needs_results
+def test_results_doc_index_is_current():
+    from neuraluv_paper.claims import INDEX_BEGIN, INDEX_END
+
+    text = (ROOT / "docs" / "RESULTS.md").read_text(encoding="utf-8")
+    block = text.split(INDEX_BEGIN, 1)[1].split(INDEX_END, 1)[0].strip()
+    assert block == nbhelp.results_index(), "regenerate it: python book/build.py"
+    assert all(f"../results/{p.relative_to(RESULTS).as_posix()}" in block
+               for p in RESULTS.glob("*/*.md") if p.name != "README.md")

@@ -6,7 +6,7 @@ The routed-face split is the paper's Table 8 quantity (52.1% neural /
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -246,8 +246,6 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
 
 def _copied_charts(charts, copies, m):
     """The charts of every copy component: the original's charts, faces and vertices renamed."""
-    from dataclasses import replace
-
     chart_of = np.full(m, -1, np.int64)
     for i, c in enumerate(charts):
         chart_of[c.faces] = i
@@ -408,8 +406,6 @@ def repack(res, packer="shelf", *, padding=None, resolution=None, pack_trials=No
     >>> repack(res, "xatlas").validation["valid"]
     True
     """
-    from dataclasses import replace
-
     padding = res.info["padding"] if padding is None else padding
     resolution = res.info["resolution"] if resolution is None else resolution
     orient = res.info.get("orient", "compact")

@@ -1,11 +1,15 @@
 """Atlas step 2: disk-like chart candidates (components, xatlas seams, bisection)."""
 from __future__ import annotations
 
-import numpy as np
+import threading
 
-from neuraluv.meshfix import normalize_unit_box
+import igl
+import numpy as np
+import xatlas
+
 from neuraluv.layout.overlap import boundary_is_simple
 from neuraluv.layout.rigid import rigid_fit
+from neuraluv.meshfix import normalize_unit_box
 from neuraluv.metrics import distortion_metrics
 from neuraluv.topology import (bisect_faces, boundary_loop, boundary_loops, components, face_components, is_disk_like,
                                nonmanifold_vertices, submesh)
@@ -30,8 +34,6 @@ def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
     charts : list of (k_i,) int arrays of face indices into ``F``; faces xatlas
         left out (zero area in float32) come back as their own groups.
     """
-    import xatlas
-
     at = xatlas.Atlas()
     at.add_mesh(normalize_unit_box(V)[0].astype(np.float32), F.astype(np.uint32))
     co = xatlas.ChartOptions()
@@ -56,8 +58,6 @@ def seam_charts(V, F, *, max_cost=4.0, max_iterations=2):
 
 def _interruptible(fn, *args):
     """Run a long C++ call in a worker thread so Ctrl-C / SIGTERM still reach the main thread within 0.1 s."""
-    import threading
-
     box = {}
 
     def work():
@@ -139,8 +139,6 @@ def chart_mesh(V, F, fidx):
     >>> len(Vx), len(Fx) > 0, is_disk_like(np.vstack([Vd[vi], Vx]), np.vstack([Fl, Fx]))[0]
     (1, True, True)
     """
-    import igl
-
     V = np.asarray(V, float)
     vi, Fl = submesh(F, np.asarray(fidx, np.int64))
     if len(nonmanifold_vertices(len(vi), Fl)):
@@ -276,8 +274,6 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
     >>> [(len(f), s) for f, s in merge_small_charts(V, F, parts)]
     [(96, 'a + 1 merged')]
     """
-    import igl
-
     F = np.asarray(F, np.int64)
     m = len(F)
     label = np.full(m, -1, np.int64)
@@ -358,8 +354,6 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
 
 def _flattens(V, F):
     """True when LSCM (two boundary pins) maps the disk ``(V, F)`` without flips or a self-crossing boundary."""
-    import igl
-
     bnd = boundary_loop(F)
     if len(bnd) < 3:
         return False

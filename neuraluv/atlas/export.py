@@ -2,16 +2,20 @@
 from __future__ import annotations
 
 import json
+import resource
+import sys
 from pathlib import Path
 
 import numpy as np
+import trimesh
+from trimesh.visual import TextureVisuals
 
 from neuraluv import plot
 from neuraluv.atlas.build import build_atlas
-from neuraluv.layout.facts import face_texel_density
-from neuraluv.layout.validate import validate_layout
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import atomic_write, jsonable, load_mesh, read_obj, write_obj
+from neuraluv.layout.facts import face_texel_density
+from neuraluv.layout.validate import validate_layout
 
 __all__ = ["write_atlas", "read_atlas", "save_renders", "atlas_file"]
 
@@ -26,8 +30,6 @@ def write_atlas(path, V, F, UV, FUV):
     if ext == ".obj":
         write_obj(path, V, F, UV, FUV)
     elif ext in (".glb", ".gltf"):
-        import trimesh
-        from trimesh.visual import TextureVisuals
 
         pairs = np.stack([np.asarray(F).reshape(-1), np.asarray(FUV).reshape(-1)], 1)
         uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
@@ -48,7 +50,6 @@ def read_atlas(path):
         if FUV is None:
             raise NeuralUVError(f"{path.name} has no per-corner texture coordinates")
         return V, F, UV, FUV
-    import trimesh
 
     sc = trimesh.load(str(path), process=False)
     geoms = list(sc.geometry.values()) if isinstance(sc, trimesh.Scene) else [sc]
@@ -92,9 +93,6 @@ def save_renders(res, outdir, stem="atlas"):
 
 def _peak_memory_mb():
     """Peak resident memory of this process so far, in MB."""
-    import resource
-    import sys
-
     kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return kb / (1024.0 * 1024.0) if sys.platform == "darwin" else kb / 1024.0  # bytes on macOS, KiB on Linux
 

@@ -1,6 +1,7 @@
 """Atlas step 1: repair a raw mesh (weld, drop degenerate/duplicate faces, orient, split non-manifold)."""
 from __future__ import annotations
 
+import igl
 import numpy as np
 
 from neuraluv.io import check_mesh_arrays
@@ -44,8 +45,6 @@ def prepare_mesh(V, F, *, min_height=1e-6):
     >>> len(V3) == len(V), topology_scan(V3, F3).oriented
     (True, True)
     """
-    import igl
-
     V, F = check_mesh_arrays(V, F)
     V1, F1, rep, vmap = repair_mesh(V, F, weld=True)
     info = {"repair": rep.as_dict(), "reoriented_faces": 0, "split_vertices": 0, "removed_after_split": 0}

@@ -17,10 +17,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from neuraluv.atlas.candidates import chart_mesh
+from neuraluv.atlas.candidates import chart_mesh, split_into_disks
+from neuraluv.jacobian import local_frames
 from neuraluv.layout.overlap import boundary_is_simple, self_overlap
 from neuraluv.metrics import distortion_metrics, is_valid
+from neuraluv.relax import slim_relax_while
+from neuraluv.solver.config import get_config
 from neuraluv.topology import bisect_faces, boundary_loop, submesh
+from neuraluv.tutte import tutte
 
 #: Route codes of ``AtlasResult.face_route``.
 ROUTES = {"fallback": 0, "neural": 1, "exact": 2}
@@ -71,8 +75,6 @@ def per_face_uv(V, F):
     -------
     list of (3,2) float arrays, one per face (corners in face order).
     """
-    from neuraluv.jacobian import local_frames
-
     dCi, _ = local_frames(V, F)
     C = np.linalg.inv(dCi)  # columns: c_j - c_i, c_k - c_i
     return [np.array([[0.0, 0.0], C[t][:, 0], C[t][:, 1]]) for t in range(len(F))]
@@ -152,9 +154,6 @@ def tutte_slim_uv(V, F, fidx, iterations=TUTTE_SLIM_ITERATIONS):
     >>> m = distortion_metrics(V[vi], Fl, uv); m["flips"], bool(m["esd"] < 4.2)
     (0, True)
     """
-    from neuraluv.relax import slim_relax_while
-    from neuraluv.tutte import tutte
-
     vi, Fl, Vx, Fx = chart_mesh(V, F, fidx)
     Vc, Fc = np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]).astype(np.int64)
 
@@ -346,9 +345,7 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
     >>> [(x.route, x.method, x.metrics["flips"]) for x in c]
     [('neural', 'neural', 0), ('exact', 'exact-unfold', 0)]
     """
-    from neuraluv.atlas.candidates import split_into_disks
     from neuraluv.solver.chart import prepare_chart, solve_charts
-    from neuraluv.solver.config import get_config
 
     cfg = get_config(config)
     t0 = time.perf_counter()

@@ -21,9 +21,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm.auto import tqdm
 
+from neuraluv.atlas import atlas_file
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import MESH_EXTENSIONS as MESH_EXTS
+from neuraluv.io import atomic_write
 
 __all__ = ["MESH_EXTS", "list_assets", "atlas_asset", "summarize", "SweepResult", "sweep"]
 
@@ -135,7 +138,6 @@ def atlas_asset(path, out_dir, *, timeout=600.0, resume=True, isolate=True, out_
         err = (pr.stderr.strip().splitlines() or ["unknown error"])[-1]
         row.update({"status": "error", "error": err, "time": t})
         return row
-    from neuraluv.atlas import atlas_file
 
     try:
         opts = {k: v for k, v in kw.items() if v is not None}
@@ -191,8 +193,6 @@ class SweepResult:
 
 
 def _write_csv(path, rows, cols):
-    from neuraluv.io import atomic_write
-
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=cols, extrasaction="ignore")
     w.writeheader()
@@ -254,7 +254,6 @@ def sweep(inputs, out_dir, *, scheduler=None, n_workers=2, threads_per_worker=1,
                 for i, p in enumerate(assets)]
         bar = None
         if progress:
-            from tqdm.auto import tqdm
 
             bar = tqdm(total=len(futs), desc="assets", dynamic_ncols=True)
         rows = []
@@ -278,7 +277,6 @@ def sweep(inputs, out_dir, *, scheduler=None, n_workers=2, threads_per_worker=1,
     paths = {"csv": out_dir / "results.csv", "summary_csv": out_dir / "summary.csv", "markdown": out_dir / "summary.md"}
     _write_csv(paths["csv"], rows, COLUMNS)
     _write_csv(paths["summary_csv"], [s], list(s))
-    from neuraluv.io import atomic_write
 
     with atomic_write(paths["markdown"]) as fh:
         fh.write(md)

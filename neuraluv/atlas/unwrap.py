@@ -15,9 +15,9 @@ import numpy as np
 from neuraluv import __version__
 from neuraluv.errors import TopologyError
 from neuraluv.io import check_mesh_arrays, jsonable
+from neuraluv.layout.pack.shelf import shelf_pack
 from neuraluv.meshfix import RepairReport, is_triangle_soup, repair_mesh
 from neuraluv.metrics import distortion_metrics
-from neuraluv.layout.pack.shelf import shelf_pack
 from neuraluv.solver.chart import ChartResult, solve_charts
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device

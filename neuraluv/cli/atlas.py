@@ -143,8 +143,8 @@ def cmd_check_uv(args):
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.layout.validate import validate_layout
     from neuraluv.io import patch_obj, write_json
+    from neuraluv.layout.validate import validate_layout
     from neuraluv.repair.repair import repair_layout
     from neuraluv.solver.device import resolve_device
 

@@ -8,8 +8,8 @@
 
 Real meshes are never committed; they are cached under ``$NEURALUV_DATA``.
 """
-from neuraluv.datasets.procedural import (PROCEDURAL, bumpy_disk, disk, glove, procedural, saddle,
-                                          several_components, sphere, spherical_cap)
+from neuraluv.datasets.procedural import (PROCEDURAL, bumpy_disk, disk, glove, procedural, saddle, several_components,
+                                          sphere, spherical_cap)
 from neuraluv.datasets.registry import (CLOSED, COMPACT, LARGE, REGISTRY, DataMissing, available, data_dir, fetch,
                                         fetch_all, load, load_charts, load_raw)
 

@@ -12,7 +12,11 @@ Every asset is a pure function of ``(index, seed)``.
 """
 from __future__ import annotations
 
+import igl
 import numpy as np
+from scipy.ndimage import zoom
+
+from neuraluv.datasets.procedural import sphere
 
 __all__ = [
     "noisy_implicit", "unweld", "add_fragments", "add_slivers", "flip_windings", "add_nonmanifold",
@@ -24,8 +28,6 @@ DEFECTS = ("holes", "fragments", "slivers", "nonmanifold", "duplicates", "flips"
 
 
 def _smooth_noise(rng, res, cells=5):
-    from scipy.ndimage import zoom
-
     coarse = rng.standard_normal((cells, cells, cells))
     return zoom(coarse, res / cells, order=3)[:res, :res, :res]
 
@@ -57,8 +59,6 @@ def noisy_implicit(seed=0, res=32, n_blobs=4, noise=0.25, torus=False):
     >>> V.shape[1], F.shape[1], len(F) > 100
     (3, 3, True)
     """
-    import igl
-
     rng = np.random.default_rng(seed)
     g = np.linspace(-1.0, 1.0, res)
     X, Y, Z = np.meshgrid(g, g, g, indexing="ij")
@@ -98,8 +98,6 @@ def unweld(V, F, frac=1.0, rng=None):
 
 def add_fragments(V, F, n=5, rng=None, size=0.03):
     """Append ``n`` floating fragments: lone triangles and tiny closed blobs."""
-    from neuraluv.datasets.procedural import sphere
-
     rng = np.random.default_rng(0) if rng is None else rng
     lo, hi = V.min(0), V.max(0)
     Vs, Fs = [V], [F]

@@ -14,9 +14,13 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pooch
 
 from neuraluv.datasets.procedural import PROCEDURAL, procedural
 from neuraluv.errors import NeuralUVError
+from neuraluv.io import load_mesh, read_obj
+from neuraluv.meshfix import repair_mesh
+from neuraluv.topology import components
 
 __all__ = [
     "REGISTRY", "COMPACT", "CLOSED", "LARGE", "data_dir", "fetch", "fetch_all", "available", "load", "load_raw",
@@ -26,7 +30,6 @@ __all__ = [
 
 class DataMissing(NeuralUVError):
     """A registry mesh is not in the cache (fetch it first)."""
-
 
 
 _LIBIGL = "https://github.com/libigl/libigl-tutorial-data/raw/c1f9ede366d02e3531ecbaec5e3769312f31cccd/"
@@ -78,7 +81,6 @@ def data_dir():
     env = os.environ.get("NEURALUV_DATA")
     if env:
         return Path(env).expanduser()
-    import pooch
 
     return Path(pooch.os_cache("neuraluv"))
 
@@ -140,7 +142,6 @@ def fetch(name, source=None, *, download=True):
         return dest
     if not download:
         raise DataMissing(f"registry mesh {name!r} is not cached; run `python data_scripts/fetch.py {name}` (or `--from DIR`)")
-    import pooch
 
     try:
         return Path(pooch.retrieve(url, known_hash=f"sha256:{sha}", fname=fname, path=dest.parent, progressbar=False))
@@ -161,14 +162,10 @@ def fetch_all(source=None, names=None, download=True):
 
 def load_raw(name):
     """Load a cached registry mesh as ``(V, F)`` (no download)."""
-    from neuraluv.io import load_mesh
-
     return load_mesh(fetch(name, download=False))
 
 
 def _derive_hand():
-    from neuraluv.meshfix import repair_mesh
-
     V, F = load_raw("hand")  # boundary surface of the tet mesh, unreferenced removed
     y = V[:, 1]
     cy = V[F, 1].mean(axis=1)
@@ -179,8 +176,6 @@ def _derive_hand():
 
 
 def _derive_bob():
-    from neuraluv.io import read_obj
-
     V, F, UV, FUV = read_obj(fetch("bob_tri", download=False))
     if FUV is None:
         raise NeuralUVError("bob_tri.obj has no texture coordinates to split along")
@@ -242,8 +237,6 @@ def load_charts(name, *, largest=False):
     >>> [F.shape[0] for _, F in load_charts("components")]
     [216, 216, 216]
     """
-    from neuraluv.topology import components
-
     V, F = load(name)
     parts = [(V[vi], Fc) for vi, _, Fc in components(V, F)]
     return parts[:1] if largest else parts

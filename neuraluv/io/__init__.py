@@ -9,9 +9,27 @@
 Every writer is atomic: a file is first written next to its destination and then
 renamed, so an interrupted run never leaves a half-written output behind.
 """
-from neuraluv.io.files import atomic_write, jsonable, write_csv, write_json
-from neuraluv.io.mesh import MESH_EXTENSIONS, check_mesh_arrays, load_mesh
-from neuraluv.io.obj import ObjData, patch_obj, read_obj, write_obj
+from __future__ import annotations
 
-__all__ = ["MESH_EXTENSIONS", "ObjData", "load_mesh", "write_obj", "read_obj", "patch_obj", "atomic_write",
-           "check_mesh_arrays", "jsonable", "write_json", "write_csv"]
+import importlib
+
+#: File extensions :func:`~neuraluv.io.mesh.load_mesh` reads.
+MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
+
+#: name -> module of this package that defines it (imported on first use: the command line checks paths
+#: against :data:`MESH_EXTENSIONS` without loading numpy).
+_WHERE = {"atomic_write": "files", "jsonable": "files", "write_json": "files", "write_csv": "files",
+          "check_mesh_arrays": "mesh", "load_mesh": "mesh",
+          "ObjData": "obj", "read_obj": "obj", "write_obj": "obj", "patch_obj": "obj"}
+
+__all__ = ["MESH_EXTENSIONS", *_WHERE]
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"neuraluv.io.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'neuraluv.io' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

@@ -3,18 +3,19 @@
 from __future__ import annotations
 
 import os
+import sys
 from contextlib import contextmanager
 from pathlib import Path
 
+import igl
 import numpy as np
+import trimesh
 
 from neuraluv.errors import MeshLoadError
+from neuraluv.io import MESH_EXTENSIONS
 from neuraluv.io.obj import read_obj
 
-__all__ = ["MESH_EXTENSIONS", "check_mesh_arrays", "load_mesh"]
-
-#: File extensions :func:`load_mesh` reads.
-MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
+__all__ = ["check_mesh_arrays", "load_mesh"]
 
 
 def check_mesh_arrays(V, F, *, name="mesh"):
@@ -65,8 +66,6 @@ def check_mesh_arrays(V, F, *, name="mesh"):
 
 
 def _load_tet_surface(path: Path):
-    import igl
-
     with path.open("rb") as fh:  # libigl prints its own complaint to stderr on bad files: check the header first
         head = fh.read(256)
     if b"MeshVersionFormatted" not in head:
@@ -92,8 +91,6 @@ def _load_tet_surface(path: Path):
 @contextmanager
 def _quiet_stderr():
     """Silence file descriptor 2 (C++ libraries that print their errors) for the block."""
-    import sys
-
     try:
         sys.stderr.flush()
         fd = os.dup(2)
@@ -160,7 +157,6 @@ def load_mesh(path) -> tuple[np.ndarray, np.ndarray]:
         except Exception as exc:  # libigl raises RuntimeError on bad files
             raise MeshLoadError(f"{path.name}: could not read .mesh file ({exc})") from None
         return check_mesh_arrays(V, F, name=path.name)
-    import trimesh
 
     try:
         loaded = trimesh.load(str(path), process=False, force=None)

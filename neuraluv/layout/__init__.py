@@ -19,15 +19,29 @@ clients of this package:
 Layouts are plain arrays: ``UV (p,2)`` rows indexed per corner by ``FUV (m,3)``
 (-1 where a face has no ``vt``) over a mesh ``V (n,3)``, ``F (m,3)``.
 """
-from neuraluv.layout.facts import (LayoutFacts, density_spread, face_clusters, face_texel_density, island_densities,
-                                   layout_facts, texel_density, uv_islands)
-from neuraluv.layout.overlap import boundary_is_simple, find_overlaps, overlap_pairs, self_overlap, triangles_union
-from neuraluv.layout.place import FreeSpace, Placement
-from neuraluv.layout.precision import float32_uvs
-from neuraluv.layout.rigid import quarter_turn, rigid_fit, rotate_to_min_box, upright
-from neuraluv.layout.validate import validate_facts, validate_layout
+from __future__ import annotations
 
-__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "face_clusters", "texel_density", "island_densities",
-           "face_texel_density", "density_spread", "find_overlaps", "overlap_pairs", "self_overlap", "triangles_union",
-           "boundary_is_simple", "validate_layout", "validate_facts", "rigid_fit", "quarter_turn", "rotate_to_min_box",
-           "upright", "FreeSpace", "Placement", "float32_uvs"]
+import importlib
+
+#: name -> module of this package that defines it (imported on first use, so that ``neuraluv.layout.pack``'s
+#: settings stay cheap to import, e.g. for the command line's help).
+_WHERE = {
+    "LayoutFacts": "facts", "layout_facts": "facts", "uv_islands": "facts", "face_clusters": "facts",
+    "texel_density": "facts", "island_densities": "facts", "face_texel_density": "facts", "density_spread": "facts",
+    "find_overlaps": "overlap", "overlap_pairs": "overlap", "self_overlap": "overlap", "triangles_union": "overlap",
+    "boundary_is_simple": "overlap", "validate_layout": "validate", "validate_facts": "validate",
+    "rigid_fit": "rigid", "quarter_turn": "rigid", "rotate_to_min_box": "rigid", "upright": "rigid",
+    "FreeSpace": "place", "Placement": "place", "float32_uvs": "precision",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"neuraluv.layout.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'neuraluv.layout' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from neuraluv.jacobian import signed_areas_2d
+from neuraluv.layout.overlap import find_overlaps
 from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import face_dets
 from neuraluv.topology import faces_sharing
@@ -239,7 +240,6 @@ class LayoutFacts:
     def overlaps(self):
         """Overlapping pairs of oriented faces (:func:`~neuraluv.layout.overlap.find_overlaps`), computed once."""
         if "overlaps" not in self._cache:
-            from neuraluv.layout.overlap import find_overlaps
 
             self._cache["overlaps"] = find_overlaps(self)
         return self._cache["overlaps"]

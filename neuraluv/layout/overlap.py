@@ -12,6 +12,7 @@ between islands are exact polygon arithmetic (shapely).
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
 from neuraluv.jacobian import signed_areas_2d
 from neuraluv.topology import boundary_loop
@@ -41,8 +42,6 @@ def candidate_pairs(tri_a, tri_b=None):
     >>> [a.tolist() for a in candidate_pairs(t)]
     [[0], [1]]
     """
-    import shapely
-
     def boxes(t):
         lo, hi = t.min(1), t.max(1)
         return shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])
@@ -109,8 +108,6 @@ def overlapping_pairs(P, Q, rtol=1e-9):
 
 
 def _polygons(T):
-    import shapely
-
     return shapely.polygons(np.concatenate([T, T[:, :1]], axis=1))
 
 
@@ -123,8 +120,6 @@ def pair_areas(P, Q):
     >>> pair_areas(t, t).tolist()
     [0.5]
     """
-    import shapely
-
     if not len(P):
         return np.zeros(0)
     return shapely.area(shapely.intersection(_polygons(np.asarray(P, float)), _polygons(np.asarray(Q, float))))
@@ -231,8 +226,6 @@ def triangles_union(UV, F):
     >>> round(U.area, 12), t
     (1.0, 1.0)
     """
-    import shapely
-
     tri = np.asarray(UV, float)[np.asarray(F, np.int64)]
     total = float(np.abs(signed_areas_2d(UV, F)).sum())
     return shapely.union_all(_polygons(tri)), total
@@ -275,8 +268,6 @@ def gaps(polys, within, pages=None, skip=()):
     >>> [x.tolist() for x in gaps([box(0, 0, 1, 1), box(1.5, 0, 2, 1), box(9, 9, 10, 10)], 1.0)]
     [[0], [1], [0.5]]
     """
-    import shapely
-
     P = np.array(list(polys), dtype=object)
     if len(P) < 2:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
@@ -302,8 +293,6 @@ def boundary_is_simple(UV, F):
     >>> boundary_is_simple(np.array([[0., 0], [1, 0], [1, 1], [0, 1]]), F)
     True
     """
-    import shapely
-
     bnd = boundary_loop(F)
     if len(bnd) < 3:
         return False

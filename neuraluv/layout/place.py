@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 
 from neuraluv.layout.overlap import outline_rings, triangles_union
 from neuraluv.layout.raster import Page, dilate, rasterise
@@ -98,8 +99,6 @@ class FreeSpace:
 
     def clear(self, P):
         """True when the island ``P`` shares no area with a fixed island and keeps the padding from each."""
-        import shapely
-
         if not self.polys:
             return True
         if self._tree is None:

@@ -12,6 +12,8 @@ unit covers cell ``(r, c)`` of its mask when it covers UV cell
 from __future__ import annotations
 
 import numpy as np
+from PIL import Image, ImageDraw
+from scipy import fft, ndimage
 
 __all__ = ["rasterise", "disk", "dilate", "Page"]
 
@@ -44,8 +46,6 @@ def rasterise(rings, cells, *, lo=None, shape=None):
     >>> m.shape, int(m.sum()), lo.tolist()
     ((7, 7), 25, [-1.0, -1.0])
     """
-    from PIL import Image, ImageDraw
-
     pts = np.vstack([e for e, _ in rings]) if rings else np.zeros((1, 2))
     lo = np.floor(pts.min(0) * cells) - 1.0 if lo is None else np.asarray(lo, float)
     if shape is None:
@@ -81,8 +81,6 @@ def dilate(mask, r, *, grow=True):
     >>> dilate(np.ones((1, 1), bool), 1).astype(int).tolist()
     [[0, 1, 0], [1, 1, 1], [0, 1, 0]]
     """
-    from scipy import ndimage
-
     r = int(r)
     if r <= 0:
         return mask.copy()
@@ -110,8 +108,6 @@ class Page:
     """
 
     def __init__(self, shape):
-        from scipy import fft
-
         self.shape = (int(shape[0]), int(shape[1]))
         # float32 transforms are exact enough (error well below 0.5) up to 1024² pages; larger ones use float64
         self.dtype = np.float32 if max(self.shape) <= 1024 else np.float64
@@ -122,8 +118,6 @@ class Page:
 
     def free(self, mask):
         """(H−h+1, W−w+1) bool: ``free[y, x]`` when ``mask`` at ``(y, x)`` covers no taken cell (empty if too large)."""
-        from scipy import fft
-
         h, w = mask.shape
         H, W = self.shape
         if h > H or w > W:

@@ -9,6 +9,7 @@ copies of a part.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 __all__ = ["rigid_fit", "QUARTER_TURNS", "quarter_turn", "rotate_to_min_box", "upright"]
 
@@ -101,7 +102,6 @@ def rotate_to_min_box(uv):
     uv = np.asarray(uv, float)
     if len(uv) < 3:
         return uv.copy()
-    from scipy.spatial import ConvexHull, QhullError
 
     try:
         hull = uv[ConvexHull(uv).vertices]

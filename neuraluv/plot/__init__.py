@@ -42,8 +42,8 @@ from __future__ import annotations
 from neuraluv.plot.figures import ROUTE_COLORS, plot_density, plot_repair, plot_routes
 from neuraluv.plot.interactive import LINKED_HOVER_JS, plotly_linked_views, plotly_solve_slider, show_plotly
 from neuraluv.plot.mpl import (add_colorbar, plot_alignment_curves, plot_checkerboard_transfer, plot_face_heatmap,
-                               plot_surface_and_uv, plot_trace, plot_uv_layout, save_checkerboard_transfer,
-                               save_figure, save_uv_layout, solve_filmstrip)
+                               plot_surface_and_uv, plot_trace, plot_uv_layout, save_checkerboard_transfer, save_figure,
+                               save_uv_layout, solve_filmstrip)
 from neuraluv.plot.style import (CAMERA_VIEWS, DETJ_CMAP, DETJ_FOLD_COLOR, DETJ_TICKS, camera_view, checker_count,
                                  checker_square, checkerboard_texture, detj_cmap, detj_norm, face_detj, pyplot,
                                  scalar_colors)

@@ -11,8 +11,8 @@ import os
 
 import numpy as np
 
-from neuraluv.plot.style import (CAMERA_VIEWS, camera_view, checker_count, checker_square, checkerboard_texture,
-                                 pyplot, scalar_colors)
+from neuraluv.plot.style import (CAMERA_VIEWS, camera_view, checker_count, checker_square, checkerboard_texture, pyplot,
+                                 scalar_colors)
 
 __all__ = ["render_surface", "render_checkerboard", "live_view", "trame_available"]
 

@@ -29,12 +29,17 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
 
 from neuraluv.layout.facts import texel_density
 from neuraluv.layout.overlap import overlap_pairs
+from neuraluv.meshfix import normalize_unit_box
+from neuraluv.metrics import corner_jacobians, face_metrics
 from neuraluv.repair.untangle import RegionEnergy, polish, untangle
+from neuraluv.solver.config import get_config
 
-__all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd"]
+__all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd",
+           "island_esds"]
 
 #: Ring counts tried around a fold, in order.
 RING_SCHEDULE = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
@@ -67,24 +72,54 @@ def region_overlaps(UV, FUV, region, island):
 
 def region_esd(Vn, F, UV, FUV, faces, scale):
     """Area-weighted E_SD of ``faces`` with the layout scaled by ``1/scale`` (``inf`` when a face is not valid)."""
-    from neuraluv.metrics import distortion_metrics
+    return float(island_esds(Vn, F, UV, FUV, [faces], [scale])[0])
 
-    m = distortion_metrics(Vn, F[faces], UV / scale, FUV[faces])
-    return float(m["esd"]) if m["valid"] else float("inf")
+
+def island_esds(Vn, F, UV, FUV, groups, scales):
+    """:func:`region_esd` of several face groups, each at its own scale, from one Jacobian evaluation.
+
+    Parameters
+    ----------
+    Vn : (n,3) float array
+    F, FUV : (m,3) int arrays
+    UV : (p,2) float array
+    groups : list of (k_i,) int arrays, face indices
+    scales : (len(groups),) float array, each group's texel density
+
+    Returns
+    -------
+    (len(groups),) float array: the area-weighted E_SD of each group's faces with the layout scaled by
+    ``1/scale`` (``inf`` where a face of the group has det J ≤ 0 or is not finite)
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0]]); F = np.array([[0, 1, 2], [0, 1, 2]])
+    >>> UV = np.array([[0, 0], [2, 0], [0, 2], [0, 0], [0, 1], [1, 0]])
+    >>> island_esds(V, F, UV, np.array([[0, 1, 2], [3, 4, 5]]), [np.array([0]), np.array([1])], [2.0, 1.0]).tolist()
+    [4.0, inf]
+    """
+    sizes = [len(g) for g in groups]
+    if not sum(sizes):
+        return np.full(len(groups), np.nan)
+    faces = np.concatenate([np.asarray(g, np.int64) for g in groups])
+    label = np.repeat(np.arange(len(groups)), sizes)
+    J, A = corner_jacobians(Vn, F[faces], UV, FUV[faces])
+    fm = face_metrics(J / np.asarray(scales, float)[label][:, None, None])
+    bad = np.bincount(label, weights=~(fm["det"] > 0) | ~np.isfinite(fm["sd"]), minlength=len(groups)) > 0
+    with np.errstate(invalid="ignore"):
+        esd = np.bincount(label, weights=np.where(np.isfinite(fm["sd"]), fm["sd"], 0.0) * A, minlength=len(groups)) \
+            / np.bincount(label, weights=A, minlength=len(groups))
+    return np.where(bad, np.inf, esd)
 
 
 def _median_esd(Vn, F, UV, FUV, faces, scale):
     """Median per-face E_SD of ``faces`` with the layout scaled by ``1/scale``."""
-    from neuraluv.metrics import corner_jacobians, face_metrics
-
     sd = face_metrics(corner_jacobians(Vn, F[faces], UV / scale, FUV[faces])[0])["sd"]
     return float(np.median(sd)) if len(sd) else float("inf")
 
 
 def _tutte_inside(UV, FUV, faces, free):
     """Uniform Tutte map of the region's free rows with every other row of the region pinned (None if singular)."""
-    from scipy.sparse.linalg import spsolve
-
     T = FUV[faces]
     rows = np.unique(T)
     loc = np.searchsorted(rows, T)
@@ -143,9 +178,7 @@ def neural_region(Vn, F, UV, FUV, faces, free, scale, config="fast", *, seed=0, 
     chart's normalised units, and the network's output is multiplied by 0 on the
     pinned rows, so they stay bit-identical.
     """
-    from neuraluv.meshfix import normalize_unit_box
     from neuraluv.solver.chart import prepare_chart, solve_charts
-    from neuraluv.solver.config import get_config
 
     cfg = get_config(config)
     T = FUV[faces]

@@ -31,16 +31,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from neuraluv import __version__
+from neuraluv.atlas.candidates import chart_candidates
+from neuraluv.atlas.routing import fallback_islands, route_charts
 from neuraluv.errors import NeuralUVError
+from neuraluv.io import jsonable
 from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs, triangles_union
 from neuraluv.layout.pack import shelf_pack
 from neuraluv.layout.place import FreeSpace
 from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box
-from neuraluv.metrics import face_dets
+from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
+from neuraluv.plot import plot_repair
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
-from neuraluv.repair.local import IslandGraph, region_esd, region_overlaps, repair_cluster
+from neuraluv.repair.local import IslandGraph, island_esds, region_overlaps, repair_cluster
 from neuraluv.repair.untangle import polish, untangle
+from neuraluv.solver.config import get_config
+from neuraluv.solver.device import torch_threads
+from neuraluv.topology import submesh
 
 __all__ = ["RepairResult", "repair_layout", "SHRINK_SCALES"]
 
@@ -106,9 +114,6 @@ class RepairResult:
 
     def report(self):
         """JSON-ready dict: before/after diagnosis, per-island diff, totals."""
-        from neuraluv import __version__
-        from neuraluv.io import jsonable
-
         return jsonable({
             "neuraluv": __version__, "unchanged": self.unchanged, "summary": self.summary(),
             "faces": int(len(self.F)), "faces_changed": int(self.changed_faces.sum()),
@@ -121,8 +126,6 @@ class RepairResult:
 
     def figure(self, *, title=None):
         """Before / after layouts, changed faces highlighted (matplotlib figure)."""
-        from neuraluv.plot import plot_repair
-
         return plot_repair(self, title=title)
 
 
@@ -131,9 +134,6 @@ def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadli
 
     Returns the new rows ``[(face_ids, rows_uv (k,2), local faces (f,3)), ...]`` and the routes.
     """
-    from neuraluv.atlas.candidates import chart_candidates
-    from neuraluv.atlas.routing import route_charts
-
     T = FUV[faces]
     rows = np.unique(T)
     Fc = np.searchsorted(rows, T)
@@ -195,8 +195,6 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     >>> bool(res.changed_faces.mean() < 0.2), repair_layout(V, F, UV).unchanged
     (True, True)
     """
-    from neuraluv.solver.config import get_config
-
     t0 = time.perf_counter()
     deadline = None if not time_budget else t0 + float(time_budget)
     F = np.asarray(F, np.int64)
@@ -226,23 +224,28 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     actions = {i: [] for i in range(facts.n_islands)}
     movers_pref = set()  # islands (input labels) already changed: first choice when something must move
 
-    from neuraluv.solver.device import torch_threads
-
     with torch_threads(threads):
+        # an island's rows are its own: until it is changed, its det J and self-overlaps are the facts'
+        ii, jj, _ = facts.overlaps()
+        same = facts.label[ii] == facts.label[jj]
+        over_faces = np.concatenate([ii[same], jj[same]])
+        over_label = facts.label[over_faces]
         for i in range(facts.n_islands):
             fi = facts.island_faces(i)
             dens = facts.density[i] if np.isfinite(facts.density[i]) else med
-            # 1. mirrored: reflect back about the island's centre
-            if facts.mirrored[i]:
+            if facts.mirrored[i]:  # 1. mirrored: reflect back about the island's centre
                 rows = np.unique(FUVw[fi])
                 cx = 0.5 * (UVw[rows, 0].min() + UVw[rows, 0].max())
                 UVw[rows, 0] = 2.0 * cx - UVw[rows, 0]
                 actions[i].append({"step": "reflected", "rows": int(len(rows))})
                 movers_pref.add(i)
+                det = _dets(Vn, F, UVw, FUVw, fi)
+                over = _self_overlap_faces(UVw, FUVw, fi, det)
+            else:
+                det = facts.det[fi]
+                over = np.unique(over_faces[over_label == i])
             # 2./3. folds and self-overlaps, locally
-            det = _dets(Vn, F, UVw, FUVw, fi)
             bad = fi[~(det > 0) & ~facts.degenerate3d[fi]]
-            over = _self_overlap_faces(UVw, FUVw, fi, det)
             targets = np.unique(np.concatenate([bad, over]))
             if not len(targets):
                 continue
@@ -284,19 +287,20 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     changed_rows[:p_in] = ~_same_bits(UVw[:p_in], UV)
     changed_faces = (FUVw != FUV).any(1) | changed_rows[FUVw].any(1)
     islands = []
-    res_uv = UVw
-    for isl in before.islands:
+    groups = [facts.island_faces(isl["island"]) for isl in before.islands]
+    dens = np.where(np.isfinite(facts.density), facts.density, med)
+    e_before = island_esds(Vn, F, UV, FUV, groups, dens)
+    touched = [k for k, fi in enumerate(groups) if changed_faces[fi].any()]
+    e_after = e_before.copy()
+    e_after[touched] = island_esds(Vn, F, UVw, FUVw, [groups[k] for k in touched], dens[touched])
+    for isl, fi, eb, ea in zip(before.islands, groups, e_before, e_after):
         i = isl["island"]
-        fi = facts.island_faces(i)
         ch = changed_faces[fi]
-        disp = np.abs(res_uv[FUVw[fi]] - np.where(np.isfinite(UV[FUV[fi]]), UV[FUV[fi]], np.nan))
+        disp = np.abs(UVw[FUVw[fi]] - np.where(np.isfinite(UV[FUV[fi]]), UV[FUV[fi]], np.nan))
         dmax = float(np.nanmax(disp)) * resolution if ch.any() and np.isfinite(disp).any() else 0.0
-        dens = facts.density[i] if np.isfinite(facts.density[i]) else med
-        e_before = region_esd(Vn, F, UV, FUV, fi, dens)
-        e_after = region_esd(Vn, F, res_uv, FUVw, fi, dens) if ch.any() else e_before
         islands.append({**_island_base(isl), "actions": actions[i], "faces_changed": int(ch.sum()),
                         "rows_changed": int(changed_rows[np.unique(FUV[fi])].sum()),
-                        "max_displacement_texels": dmax, "esd_before": e_before, "esd_after": e_after})
+                        "max_displacement_texels": dmax, "esd_before": float(eb), "esd_after": float(ea)})
     return RepairResult(V=V, F=F, UV=UVw, FUV=FUVw, changed_rows=changed_rows, changed_faces=changed_faces,
                         islands=islands, new_charts=new_charts, before=before, after=after, repacked=repacked,
                         time=time.perf_counter() - t0,
@@ -334,8 +338,6 @@ def _with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
     such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a stretched
     face elsewhere is the layout's own and stays untouched.
     """
-    from neuraluv.metrics import corner_jacobians, face_metrics
-
     ok = np.setdiff1d(island, targets)
     if not len(ok):
         return targets
@@ -381,12 +383,6 @@ def _whole_island(Vn, F, UV, FUV, faces, density, cfg, *, neural, seed, device, 
 
 def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
     """Charts for the faces ``lost`` (no usable UVs), solved by the atlas router, appended as new rows."""
-    from neuraluv.atlas.candidates import chart_candidates
-    from neuraluv.atlas.routing import route_charts
-    from neuraluv.topology import submesh
-
-    from neuraluv.atlas.routing import fallback_islands
-
     vi, Fl = submesh(F, lost)
     Vl = Vn[vi]
     UVo, FUVo = UV.copy(), FUV.copy()

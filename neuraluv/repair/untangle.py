@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize
 
 from neuraluv.jacobian import local_frames
 
@@ -205,8 +206,6 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     >>> bool(np.array_equal(np.delete(out, 0, 0), np.delete(UV, 0, 0)))      # nothing else moved
     True
     """
-    from scipy.optimize import minimize
-
     U0 = np.asarray(UV, float)
     R = RegionEnergy.build(V, F, FUV, faces, free, scale)
 

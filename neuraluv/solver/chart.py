@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
 from neuraluv.errors import TopologyError
 from neuraluv.jacobian import jacobians, local_frames
@@ -372,7 +373,6 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     logs = [[] for _ in preps]
     bar = None
     if progress:
-        from tqdm.auto import tqdm
 
         if len(preps) == 1:
             bar = tqdm(total=cfg.iterations, desc=labels[0], leave=False, dynamic_ncols=True)

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import contextlib
 
+from neuraluv.errors import NeuralUVError
+
 __all__ = ["resolve_device", "torch_threads"]
 
 
@@ -33,8 +35,6 @@ def resolve_device(device="auto"):
     neuraluv.errors.NeuralUVError: unknown device 'bogus': use auto, cpu or cuda[:N]
     """
     import torch
-
-    from neuraluv.errors import NeuralUVError
 
     if device in (None, "auto"):
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")

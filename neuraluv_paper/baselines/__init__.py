@@ -10,8 +10,14 @@
 """
 from neuraluv_paper.baselines.common import InitFail, Unavailable, weld_corners
 from neuraluv_paper.baselines.external import bff_binary, blender_python, optcuts_binary
-from neuraluv_paper.baselines.methods import (METHODS, OK_STATUSES, SCALE_FREE, BaselineResult, empty_metrics,
-                                              run_baseline)
+from neuraluv_paper.baselines.methods import (
+                                              METHODS,
+                                              OK_STATUSES,
+                                              SCALE_FREE,
+                                              BaselineResult,
+                                              empty_metrics,
+                                              run_baseline,
+)
 
 __all__ = ["METHODS", "SCALE_FREE", "OK_STATUSES", "BaselineResult", "run_baseline", "empty_metrics", "InitFail",
            "Unavailable", "weld_corners", "blender_python", "optcuts_binary", "bff_binary"]

@@ -26,14 +26,15 @@ reference is the authors' C++ ``bff`` command-line tool); it handles one disk.
 """
 from __future__ import annotations
 
+import igl
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from neuraluv_paper.baselines.common import InitFail, orient_charts
 from neuraluv.errors import TopologyError
 from neuraluv.metrics import match_area
 from neuraluv.spectral import cotangent_laplacian
 from neuraluv.topology import boundary_loop, components, is_disk_like
+from neuraluv_paper.baselines.common import InitFail, orient_charts
 
 __all__ = ["bff", "bff_map", "oriented_boundary_loop", "angle_defects", "dirichlet_to_neumann", "best_fit_curve", "extend_curve"]
 
@@ -76,8 +77,6 @@ def angle_defects(V, F, bnd):
     >>> round(float(om.sum() + k.sum()) / (2 * np.pi), 9), round(float(abs(om).max()), 9)
     (1.0, 0.0)
     """
-    import igl
-
     F = np.asarray(F, np.int64)
     theta = np.asarray(igl.internal_angles(np.asarray(V, float), F))
     s = np.bincount(F.ravel(), theta.ravel(), minlength=len(V))
@@ -292,8 +291,6 @@ def bff(V, F, *, boundary_u=0.0, target_k=None, extension="conjugate"):
 
 def bff_map(V, F, **kw):
     """Boundary First Flattening, each component separately (see :mod:`neuraluv_paper.baselines.bff`)."""
-    from neuraluv_paper.baselines.bff import bff
-
     parts = components(V, F)
     UV = np.zeros((len(V), 2))
     x0 = 0.0

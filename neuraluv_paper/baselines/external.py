@@ -1,6 +1,8 @@
 """External tools as baselines: xatlas, Blender (``bpy`` in its own environment), OptCuts and the BFF binary."""
 from __future__ import annotations
 
+import importlib.util
+import json
 import os
 import shutil
 import subprocess
@@ -10,8 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv_paper.baselines.common import InitFail, Unavailable, weld_corners
+from neuraluv.io import atomic_write, read_obj
 from neuraluv.topology import topology_scan
+from neuraluv_paper.baselines.common import InitFail, Unavailable, weld_corners
 
 __all__ = ["xatlas_map", "BLENDER_MODES", "blender_python", "blender_map", "optcuts_binary", "optcuts_map",
            "bff_binary", "bff_cli_map", "built_binary", "TRIANGLE_NOTE"]
@@ -46,8 +49,6 @@ def _tool(env_var, name):
 
 
 def _write_obj(path, V, F):
-    from neuraluv.io import atomic_write
-
     with atomic_write(path) as fh:
         fh.write("".join(f"v {x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in np.asarray(V, float)))
         fh.write("".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in np.asarray(F, np.int64)))
@@ -97,7 +98,6 @@ def blender_python():
     env = os.environ.get("NEURALUV_BPY_PYTHON")
     if env:
         return env if Path(env).exists() else None
-    import importlib.util
 
     if importlib.util.find_spec("bpy") is not None:
         return sys.executable
@@ -131,8 +131,6 @@ def blender_map(V, F, mode="SMART", *, timeout=600, **params):
     returned by :func:`blender_python` (``bpy`` is ~370 MB and kept out of the
     main environment).
     """
-    import json
-
     py = blender_python()
     if py is None:
         raise Unavailable("Blender's bpy module not found: run `make blender-env` in the repository (bpy 4.5 in "
@@ -227,7 +225,6 @@ def bff_cli_map(V, F, *, n_cones=0, flatten_to_disk=False, normalize=True, presc
     if binary is None:
         raise Unavailable("BFF command-line tool (bff-command-line) not found: " + _BUILD_HINT
                           + ", or set NEURALUV_BFF=/path/to/bff-command-line")
-    from neuraluv.io import read_obj
 
     V = np.asarray(V, float)
     F = np.asarray(F, np.int64)
@@ -320,7 +317,6 @@ def optcuts_map(V, F, *, lambda_init=0.999, distortion_bound=4.1, bijective=1, m
     if binary is None:
         raise Unavailable("OptCuts binary (OptCuts_bin) not found: " + _BUILD_HINT
                           + ", or set NEURALUV_OPTCUTS=/path/to/OptCuts_bin; " + TRIANGLE_NOTE)
-    from neuraluv.io import read_obj
 
     ncomp = topology_scan(V, F).components
     if ncomp != 1 and single_component:

@@ -1,20 +1,20 @@
 """libigl baselines: harmonic, LSCM, ARAP and SLIM (the paper's compact-chart rows, libigl 2.6)."""
 from __future__ import annotations
 
+import igl
 import numpy as np
 
-from neuraluv_paper.baselines.common import require_disk
 from neuraluv.metrics import match_area
+from neuraluv.relax import slim_relax
 from neuraluv.topology import boundary_loop
-from neuraluv.tutte import circle_boundary
+from neuraluv.tutte import circle_boundary, tutte
+from neuraluv_paper.baselines.common import require_disk
 
 __all__ = ["harmonic", "lscm", "arap", "slim"]
 
 
 
 def _harmonic_uv(V, F):
-    import igl
-
     bnd = boundary_loop(F)
     bc = circle_boundary(V, bnd)
     return np.asarray(igl.harmonic(V, F, bnd, bc, 1))
@@ -51,8 +51,6 @@ def lscm(V, F):
     Minimises ``Σ_t A_t |∂u/∂x + i ∂u/∂y|²`` (the conformal energy
     ``½ Σ_t A_t ‖J_t − R J_t R^T‖²``) subject to the two pins.
     """
-    import igl
-
     require_disk(V, F, "lscm")
     bnd = boundary_loop(F)
     b = np.array([bnd[0], bnd[len(bnd) // 2]], np.int64)
@@ -76,8 +74,6 @@ def arap(V, F, *, max_iter=100):
     the dynamic term ties the iterates to the start's scale (on Camel, a
     unit-circle start leaves 40% of the faces flipped, a 3D-scale one 6%).
     """
-    import igl
-
     require_disk(V, F, "arap")
     start = match_area(V, F, _harmonic_uv(V, F))  # at 3D scale: the dynamics term remembers the start
     data = igl.ARAPData()
@@ -103,8 +99,5 @@ def slim(V, F, *, iterations=1000):
     Minimises ``Σ_t A_t (‖J_t‖²_F + ‖J_t⁻¹‖²_F)`` by reweighted local/global
     proxies with a flip-preventing line search.
     """
-    from neuraluv.relax import slim_relax
-    from neuraluv.tutte import tutte
-
     require_disk(V, F, "slim")
     return slim_relax(V, F, tutte(V, F), iterations)

@@ -61,18 +61,21 @@ carry ``uv=None`` and metrics with ``nan`` values (see :func:`empty_metrics`).
 """
 from __future__ import annotations
 
+import argparse
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from neuraluv import datasets
+from neuraluv.metrics import distortion_metrics, match_area
+from neuraluv.solver import get_config
+from neuraluv.solver.result import ChartResult
+from neuraluv.topology import components, topology_scan
 from neuraluv_paper.baselines.bff import bff_map
 from neuraluv_paper.baselines.common import InitFail, Unavailable, orient_charts
 from neuraluv_paper.baselines.external import BLENDER_MODES, bff_cli_map, blender_map, optcuts_map, xatlas_map
 from neuraluv_paper.baselines.libigl import arap, harmonic, lscm, slim
-from neuraluv.metrics import distortion_metrics, match_area
-from neuraluv.solver.result import ChartResult
-from neuraluv.topology import components, topology_scan
 
 __all__ = ["BaselineResult", "METHODS", "SCALE_FREE", "OK_STATUSES", "run_baseline", "empty_metrics"]
 
@@ -150,8 +153,6 @@ def _neural(V, F, preset="fast", seed=0, device="auto", **overrides):
 
 
 def _cfg(preset, overrides):
-    from neuraluv.solver import get_config
-
     return get_config(preset, **overrides)
 
 
@@ -333,10 +334,6 @@ def run_baseline(method, V, F, *, per_component=False, **kw):
 
 def main(argv=None):
     """``python -m neuraluv_paper.baselines MESH [MESH ...] [--methods a,b] [--per-component]``: print a table."""
-    import argparse
-
-    from neuraluv import datasets
-
     p = argparse.ArgumentParser(prog="python -m neuraluv_paper.baselines", description=main.__doc__)
     p.add_argument("meshes", nargs="+", help="compact chart (camel, hand, bob), registry or procedural mesh name")
     p.add_argument("--methods", default=",".join(m for m in METHODS if m != "neural"))

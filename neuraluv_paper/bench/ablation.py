@@ -20,6 +20,9 @@ import math
 
 import numpy as np
 
+from neuraluv.errors import NeuralUVError
+from neuraluv.metrics import distortion_metrics
+from neuraluv_paper.baselines import run_baseline
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, iteration_override, load_meshes, neural_options
 from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, command_line, findings_markdown,
@@ -56,8 +59,6 @@ def neural_attempt_metrics(res):
     own choice); for a multi-component result the components' best neural
     maps are measured together over all faces.
     """
-    from neuraluv.metrics import distortion_metrics
-
     comps = getattr(res, "components", None) or []
     if comps:
         uv = np.vstack([c.neural_uv if c.neural_uv is not None else c.uv for c in comps])
@@ -96,13 +97,10 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     BenchOutput
         ``extra["summary"]``: the averaged rows.
     """
-    from neuraluv_paper.baselines import run_baseline
-
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     variants = list(variants or VARIANTS)
     bad = [v for v in variants if v not in VARIANTS]
     if bad:
-        from neuraluv.errors import NeuralUVError
 
         raise NeuralUVError(f"unknown ablation variant(s) {bad}; choose from {list(VARIANTS)}")
     if quick:

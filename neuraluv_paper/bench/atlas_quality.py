@@ -22,7 +22,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import xatlas
 
+from neuraluv import datasets
+from neuraluv.atlas.build import build_atlas, repack
+from neuraluv.datasets.generated import generated_asset
+from neuraluv.jacobian import signed_areas_2d
+from neuraluv.layout.validate import validate_layout
+from neuraluv.meshfix import normalize_unit_box
 from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, fmt_pct, machine_info, markdown_table,
                                              print_report, write_csv, write_markdown)
 
@@ -66,8 +73,6 @@ def seam_length(V, F, FUV):
 
 def xatlas_atlas(V, F, resolution, padding):
     """xatlas's own atlas: (V_cut, F_orig, UV, FUV, seconds, xatlas's raster utilisation)."""
-    import xatlas
-
     t = time.perf_counter()
     at = xatlas.Atlas()
     at.add_mesh(np.asarray(V, np.float32), np.asarray(F, np.uint32))
@@ -83,10 +88,6 @@ def xatlas_atlas(V, F, resolution, padding):
 
 
 def _measure(V, F, UV, FUV, resolution, padding):
-    from neuraluv.layout.validate import validate_layout
-    from neuraluv.jacobian import signed_areas_2d
-    from neuraluv.meshfix import normalize_unit_box
-
     Vn = normalize_unit_box(V)[0]
     val = validate_layout(V, F, UV, FUV, padding=padding, resolution=resolution, tiles=bool(UV.max() > 1))
     return {
@@ -99,9 +100,6 @@ def _measure(V, F, UV, FUV, resolution, padding):
 
 
 def _assets(args):
-    from neuraluv import datasets
-    from neuraluv.datasets.generated import generated_asset
-
     names = args.meshes or (["spot"] if args.quick else DEFAULT_MESHES)
     out = []
     for name in names:
@@ -120,8 +118,6 @@ def _assets(args):
 
 def bench(args):
     """Run the comparison for parsed ``args`` (see :func:`add_arguments`); returns the BenchOutput."""
-    from neuraluv.atlas.build import build_atlas, repack
-
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     machine = machine_info("cpu")

@@ -25,12 +25,16 @@ from pathlib import Path
 
 import numpy as np
 
+from neuraluv.errors import NeuralUVError
+from neuraluv.layout.rigid import rigid_fit
+from neuraluv.topology import vertex_components
+from neuraluv_paper.baselines import bff_binary, optcuts_binary, run_baseline
 from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.charts import chart_pool, default_sources, select_charts
 from neuraluv_paper.bench.common import MESH_LABELS, load_meshes
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, fmt_num, fmt_pct, fmt_time,
                                              fraction, machine_info, markdown_table, print_report, progress, with_paper,
                                              write_csv, write_markdown)
-from neuraluv.layout.rigid import rigid_fit
 
 __all__ = ["bff_agreement", "optcuts_sample", "map_distance", "add_arguments", "run", "BFF_VARIANTS"]
 
@@ -61,8 +65,6 @@ def map_distance(F, uv_a, F_b, uv_b):
     >>> [round(x, 12) for x in map_distance(F, uv, F, rot)]
     [0.0, 0.0]
     """
-    from neuraluv.topology import vertex_components
-
     F = np.asarray(F, np.int64)
     _, lab = vertex_components(int(F.max()) + 1, F)
     flab = lab[F[:, 0]]
@@ -99,8 +101,6 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
     -------
     BenchOutput
     """
-    from neuraluv_paper.baselines import bff_binary, run_baseline
-
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     names = list(meshes or ["camel", "hand", "bob"])
@@ -202,9 +202,6 @@ def optcuts_sample(n_charts=10, *, sources=None, output="results/baselines", res
     -------
     BenchOutput
     """
-    from neuraluv_paper.baselines import optcuts_binary, run_baseline
-    from neuraluv_paper.bench.charts import chart_pool, default_sources, select_charts
-
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     machine = machine_info("cpu")
@@ -274,8 +271,6 @@ def add_arguments(p):
 
 
 def run(args):
-    from neuraluv.errors import NeuralUVError
-
     if getattr(args, "quick", False):
         args.meshes = args.meshes or ["camel"]
     outs = []
@@ -283,7 +278,6 @@ def run(args):
         outs.append(bff_agreement(args.meshes, output=args.output, repeats=1 if args.quick else args.repeats,
                                   show_progress=not args.quiet, args=args))
     if args.optcuts_sample:
-        from neuraluv_paper.baselines import optcuts_binary
 
         if optcuts_binary() is None:
             raise NeuralUVError("OptCuts binary not found: run `make baselines` (or set NEURALUV_OPTCUTS)")

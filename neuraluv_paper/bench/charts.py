@@ -32,7 +32,15 @@ import math
 from pathlib import Path
 
 import numpy as np
+import trimesh
+import xatlas
 
+from neuraluv import plot
+from neuraluv.datasets import CLOSED, LARGE, available, load, sphere
+from neuraluv.errors import NeuralUVError
+from neuraluv.meshfix import repair_mesh
+from neuraluv.topology import is_disk_like
+from neuraluv_paper.baselines import run_baseline
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench.common import LABELS, iteration_override, neural_options
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num,
@@ -90,18 +98,14 @@ def _load_source(name):
         V = np.asarray(m.points, float)
         F = np.asarray(m.faces).reshape(-1, 4)[:, 1:].astype(np.int64)
     elif name == "sphere":
-        from neuraluv.datasets import sphere
 
         V, F = sphere(3)
     else:
-        from neuraluv.datasets import load
 
         V, F = load(name)
-    from neuraluv.meshfix import repair_mesh
 
     V, F, _, _ = repair_mesh(V, F)
     if sub:
-        import trimesh
 
         for _ in range(sub):
             V, F = trimesh.remesh.subdivide(V, F)
@@ -111,8 +115,6 @@ def _load_source(name):
 
 def default_sources(large=False):
     """Cached closed registry meshes plus pyvista's offline meshes (and, with ``large``, the large registry meshes)."""
-    from neuraluv.datasets import CLOSED, LARGE, available
-
     names = CLOSED + (LARGE if large else [])
     return [n for n in names if available(n)] + [f"pv:{n}" for n in PYVISTA_MESHES]
 
@@ -138,8 +140,6 @@ def xatlas_charts(V, F):
     >>> sum(len(c) for c in charts) == len(F)
     True
     """
-    import xatlas
-
     atlas = xatlas.Atlas()
     atlas.add_mesh(np.ascontiguousarray(V, np.float32), np.ascontiguousarray(F, np.uint32))
     atlas.generate()
@@ -162,9 +162,6 @@ def chart_pool(sources, cache_dir=None, show_progress=False):
     failed : list of (source, reason)
         Sources that could not be loaded or cut.
     """
-    from neuraluv.errors import NeuralUVError
-    from neuraluv.topology import is_disk_like
-
     pool, failed = [], []
     for src in progress(sources, desc="xatlas", disable=not show_progress):
         try:
@@ -237,7 +234,6 @@ def chart_arrays(c):
     """``(V, F)`` of a pool entry, subdividing a :func:`subdivided_charts` copy on demand."""
     V, F = c["V"], c["F"]
     if c.get("level"):
-        import trimesh
 
         for _ in range(c["level"]):
             V, F = trimesh.remesh.subdivide(V, F)
@@ -326,8 +322,6 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
     BenchOutput
         ``extra["summary"]``: per-subset rows; ``rows``: one per chart and method.
     """
-    from neuraluv_paper.baselines import run_baseline
-
     if quick:
         overrides = {"iterations": 30, "retries": 0, **overrides}
     sources = list(sources or (["sphere", "pv:ant"] if quick else default_sources(large=True)))
@@ -538,8 +532,6 @@ def _findings(summary, rows):
 
 
 def _figure(out, rows):
-    from neuraluv import plot
-
     plt = plot.pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.6))
     for m, mk in (("neural", "o"), ("bff", "s"), ("slim-1k", "^")):

@@ -1,13 +1,18 @@
 """What the benchmark runners share: method and mesh names, labels, loading, the neural options, result rows."""
 from __future__ import annotations
 
+import resource
+import time
+
 import numpy as np
 
 from neuraluv import datasets
 from neuraluv.errors import NeuralUVError
+from neuraluv.metrics import distortion_metrics
+from neuraluv.relax import slim_relax
 
 __all__ = ["METHODS", "LABELS", "RECUT", "DEFAULT_MESHES", "QUICK_MESHES", "QUICK_SIZES", "QUICK_METHODS", "MESH_LABELS",
-           "load_meshes", "neural_options", "result_row", "iteration_override"]
+           "load_meshes", "neural_options", "result_row", "iteration_override", "peak_rss_mb", "slim_reference"]
 
 #: Table 2's methods, in the paper's order (OptCuts last: it recuts), then the external tools the
 #: paper names beside them: the BFF v1.6 binary next to our BFF, and Blender's unwrappers (optional
@@ -83,3 +88,34 @@ def result_row(res):
     return row
 
 
+def peak_rss_mb(reset=False):
+    """Peak resident set size of this process in MB (Linux ``VmHWM``); ``reset`` starts a new peak."""
+    if reset:
+        try:
+            with open("/proc/self/clear_refs", "w") as fh:
+                fh.write("5")
+        except OSError:
+            pass
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def slim_reference(preps, iterations):
+    """SLIM from each chart's own start (the solver's Tutte / un-crushed map); (seconds, area-weighted E_SD, flips)."""
+    t = time.perf_counter()
+    uvs = [slim_relax(p.Vn, p.F, p.u_start, iterations) for p in preps]
+    dt = time.perf_counter() - t
+    ms = [distortion_metrics(p.V, p.F, uv * p.scale) for p, uv in zip(preps, uvs)]
+    return dt, combine_metrics(ms, preps), sum(m["flips"] for m in ms)
+
+
+def combine_metrics(metrics, preps):
+    w = np.array([p.A.sum() * p.scale**2 for p in preps])
+    return float(sum(m["esd"] * wi for m, wi in zip(metrics, w)) / w.sum())

@@ -20,12 +20,19 @@ from pathlib import Path
 
 import numpy as np
 
+from neuraluv import plot
+from neuraluv.errors import NeuralUVError
+from neuraluv.jacobian import jacobians, local_frames
+from neuraluv.metrics import face_metrics
+from neuraluv.topology import topology_scan
+from neuraluv_paper.baselines import METHODS as ALL
+from neuraluv_paper.baselines import run_baseline
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, METHODS, QUICK_MESHES, QUICK_METHODS,
                                          RECUT, iteration_override, load_meshes, neural_options, result_row)
 from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, bold, command_line, findings_markdown,
-                                             fmt_num, fmt_pct, fmt_time, grey, markdown_table, progress, save_figure,
-                                             print_report, start_run, with_paper, write_csv, write_markdown)
+                                             fmt_num, fmt_pct, fmt_time, grey, markdown_table, print_report, progress,
+                                             save_figure, start_run, with_paper, write_csv, write_markdown)
 
 __all__ = ["bench", "add_arguments", "run"]
 
@@ -77,9 +84,6 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     -------
     BenchOutput
     """
-    from neuraluv.topology import topology_scan
-    from neuraluv_paper.baselines import run_baseline
-
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (QUICK_METHODS if quick else METHODS))
     nkw = neural_options(preset, quick, seed, device, **overrides)
@@ -166,8 +170,6 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
 
 def _uncached(out, rows, loaded, methods):
     """``"mesh/method"`` of the maps the plates need that are not in ``out/cache`` (resumed rows)."""
-    from neuraluv.topology import topology_scan
-
     single = {n for n, V, F in loaded if topology_scan(V, F).components == 1}
     need = {(r["mesh"], r["method"]) for r in rows if r["mesh"] in single and r["mode"] == "whole"
             and r["method"] in methods and r["method"] not in RECUT and _ok(r)}
@@ -347,11 +349,6 @@ def _findings(rows, names):
 
 def _figures(out, loaded, methods):
     """The compact map plate and heatmap plate (single-component meshes only, like the paper)."""
-    from neuraluv import plot
-    from neuraluv.jacobian import jacobians, local_frames
-    from neuraluv.metrics import face_metrics
-    from neuraluv.topology import topology_scan
-
     plt = plot.pyplot()
     meths = [m for m in methods if m not in RECUT]
     single = [(n, V, F) for n, V, F in loaded if topology_scan(V, F).components == 1]
@@ -414,9 +411,6 @@ def add_arguments(p):
 
 
 def run(args):
-    from neuraluv.errors import NeuralUVError
-    from neuraluv_paper.baselines import METHODS as ALL
-
     bad = [m for m in (args.methods or []) if m not in ALL]
     if bad:
         raise NeuralUVError(f"unknown method(s) {', '.join(bad)}; choose from {', '.join(ALL)}")

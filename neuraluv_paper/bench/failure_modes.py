@@ -11,6 +11,8 @@ Python API: :func:`bench`; command line: ``neuraluv bench failure-modes``.
 """
 from __future__ import annotations
 
+from neuraluv.topology import topology_scan
+from neuraluv_paper.baselines import run_baseline
 from neuraluv_paper.bench import paper_values as PV
 from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, QUICK_MESHES, iteration_override,
                                          load_meshes, neural_options, result_row)
@@ -76,9 +78,6 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     -------
     BenchOutput
     """
-    from neuraluv.topology import topology_scan
-    from neuraluv_paper.baselines import run_baseline
-
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (PAPER_METHODS if quick else METHODS)) + (["neural"] if neural else [])
     nkw = neural_options(preset, quick, seed, device, **overrides)

@@ -34,8 +34,18 @@ import time
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
+from neuraluv.atlas import build_atlas
+from neuraluv.atlas.sweep import sweep
+from neuraluv.datasets.generated import generated_asset
+from neuraluv.io import atomic_write
+from neuraluv.meshfix import face_areas
+from neuraluv.metrics import corner_jacobians, face_metrics
+from neuraluv_paper.baselines import Unavailable
+from neuraluv_paper.baselines.external import blender_map
 from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import load_meshes
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
                                              fmt_time, fraction, markdown_table, print_report, progress, start_run,
                                              with_paper, write_csv, write_markdown)
@@ -62,8 +72,6 @@ def ours_row(V, F, preset="fast", *, threads=1, device="auto", charts_path=None)
     >>> r["status"], r["coverage"], r["flips"], r["overlaps"]
     ('ok', 1.0, 0, 0)
     """
-    from neuraluv.atlas import build_atlas
-
     t0 = time.perf_counter()
     try:
         res = build_atlas(V, F, preset, threads=threads, device=device)
@@ -114,11 +122,6 @@ def chart_mesh_of(res):
 def blender_row(V, F, method):
     """Blender's unwrap of one raw mesh, counted on its loop UVs (a flat dict; ``status`` ``unavailable``
     without ``bpy``)."""
-    from neuraluv.meshfix import face_areas
-    from neuraluv.metrics import corner_jacobians, face_metrics
-    from neuraluv_paper.baselines import Unavailable
-    from neuraluv_paper.baselines.external import blender_map
-
     F = np.asarray(F, np.int64)
     t0 = time.perf_counter()
     try:
@@ -144,14 +147,11 @@ def blender_row(V, F, method):
 
 
 def _assets(n, meshes, quick):
-    from neuraluv.datasets.generated import generated_asset
-
     out = []
     for i in range(n):
         V, F, info = generated_asset(i, res=16 if quick else None)
         out.append((info["name"], V, F))
     if meshes:
-        from neuraluv_paper.bench.common import load_meshes
 
         loaded, _ = load_meshes(list(meshes), quick)
         out += loaded
@@ -331,12 +331,6 @@ def bench(n_assets=25, meshes=None, *, preset=None, quick=False, output="results
 
 
 def _sweep(out, n, preset, workers, quick, resume):
-    import trimesh
-
-    from neuraluv.atlas.sweep import sweep
-    from neuraluv.datasets.generated import generated_asset
-    from neuraluv.io import atomic_write
-
     src = out / "cache" / "assets"
     src.mkdir(parents=True, exist_ok=True)
     paths = [src / f"gen_{i:04d}.obj" for i in range(n)]  # these n: the folder may hold more from a larger run

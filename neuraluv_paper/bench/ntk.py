@@ -41,13 +41,20 @@ import json
 import time
 from pathlib import Path
 
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
+from tqdm.auto import tqdm
 
 from neuraluv import datasets
-from neuraluv_paper.bench.paper_values import TABLE5
-from neuraluv_paper.bench.ntk_trajectory import draw_probe, milestones, probe_markdown, trajectory_probe
-from neuraluv_paper.bench.provenance import command_line, machine_info, machine_line, write_findings
+from neuraluv.errors import NeuralUVError
 from neuraluv.io import write_csv
+from neuraluv.plot import plot_alignment_curves
+from neuraluv.solver import get_config, resolve_device, solve_chart
+from neuraluv_paper.bench.ntk_trajectory import draw_probe, milestones, probe_markdown, trajectory_probe
+from neuraluv_paper.bench.paper_values import TABLE5
+from neuraluv_paper.bench.provenance import command_line, machine_info, machine_line, write_findings
+from neuraluv_paper.ntk import TrajectoryRecorder, alignment_curve, make_probe
 
 __all__ = ["PAPER_TABLE5", "CHARTS", "SETTINGS", "add_arguments", "run", "effect_checks"]
 
@@ -195,12 +202,7 @@ def _markdown(table, table_nc, checks, info, args, timing, per_chart, probe=None
 def run(args):
     """Run the benchmark; returns a process exit code (0 on success)."""
     import torch
-    from tqdm.auto import tqdm
 
-    from neuraluv.errors import NeuralUVError
-    from neuraluv.plot import plot_alignment_curves
-    from neuraluv_paper.ntk import TrajectoryRecorder, make_probe
-    from neuraluv.solver import get_config, resolve_device, solve_chart
 
     if args.threads:
         torch.set_num_threads(int(args.threads))
@@ -323,10 +325,8 @@ def run(args):
     (out / "run.json").write_text(json.dumps({"machine": info, "args": {k: v for k, v in vars(args).items() if k != "func"},
                                               "timing": timing, "checks": [list(c) for c in checks]}, indent=2, default=str))
 
-    import matplotlib
 
     matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4))
     plot_alignment_curves({f"{s} k={k} w0={w:g}": c for (s, k, w), c in curves.items()}, ax=ax,
@@ -362,7 +362,6 @@ def _probe_timing(charts, cfg, args, device):
     """Time one full probe per chart: make_probe, the network, ntk_gram, alignment_curve."""
 
     from neuraluv.solver.chart import build_network, prepare_chart
-    from neuraluv_paper.ntk import alignment_curve, make_probe
 
     for name, (V, F) in charts.items():
         t0 = time.perf_counter()

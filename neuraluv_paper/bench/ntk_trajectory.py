@@ -7,9 +7,16 @@ beside the paper's). ``trajectory_probe.{csv,png}`` and a Markdown block for ``t
 """
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 import numpy as np
+
+from neuraluv import plot
+from neuraluv.solver import get_config, solve_chart
+from neuraluv_paper.bench.charts import chart_pool, default_sources, select_charts
+from neuraluv_paper.bench.provenance import progress
+from neuraluv_paper.ntk import TrajectoryRecorder, make_probe
 
 __all__ = ["trajectory_probe", "pearson", "probe_markdown", "probe_figure", "draw_probe", "milestones",
            "PAPER_PROBE_R", "PROBE_RUNS"]
@@ -68,11 +75,6 @@ def trajectory_probe(n_charts=25, faces=(300, 3000), preset="paper", iterations=
         ``correlations`` (Pearson r of each early feature with each outcome, over all runs and over the
         recipe's runs), ``checks`` (claims) and ``charts`` / ``runs`` counts.
     """
-    from neuraluv_paper.bench.charts import chart_pool, default_sources, select_charts
-    from neuraluv_paper.bench.provenance import progress
-    from neuraluv.solver import get_config, solve_chart
-    from neuraluv_paper.ntk import TrajectoryRecorder, make_probe
-
     pool, _ = chart_pool(sources or default_sources(), cache_dir)
     chosen = select_charts(pool, n_charts, [(faces[0], faces[1] + 1, "probe")])
     rows, runs = [], []
@@ -198,8 +200,6 @@ def probe_markdown(probe):
 
 def probe_figure(out):
     """Redraw ``trajectory_probe.png`` in ``out`` from its ``trajectory_probe.csv`` and ``probe_correlations.csv``."""
-    import csv
-
     out = Path(out)
 
     def read(name, num):
@@ -221,8 +221,6 @@ def probe_figure(out):
 
 
 def draw_probe(probe, path):
-    from neuraluv import plot
-
     plt = plot.pyplot()
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [1.3, 1]})
     groups = {}

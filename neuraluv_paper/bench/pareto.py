@@ -18,7 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from neuraluv import plot
+from neuraluv_paper.baselines import run_baseline
 from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.charts import chart_arrays, chart_pool, default_sources, subdivided_charts
 from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, QUICK_MESHES, load_meshes, neural_options
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
                                              fmt_time, fraction, markdown_table, print_report, progress, save_figure,
@@ -47,8 +50,6 @@ def closest_charts(pool, targets=XATLAS_TARGETS, within=1.5):
     >>> [(c["chart"], c["faces"]) for c in closest_charts(pool, [1000, 6500, 40000])]
     [(0, 900), ('1/s1', 4800), ('2/s1', 40000)]
     """
-    from neuraluv_paper.bench.charts import subdivided_charts
-
     disk = [c for c in pool if c["disk"]]
     finer = subdivided_charts(disk, low=0, high=float("inf"))
     chosen = []
@@ -70,8 +71,6 @@ def closest_charts(pool, targets=XATLAS_TARGETS, within=1.5):
 
 def _xatlas_set(cache_dir, targets=XATLAS_TARGETS):
     """:func:`closest_charts` of the default sources' xatlas charts, as ``(name, V, F)``."""
-    from neuraluv_paper.bench.charts import chart_arrays, chart_pool, default_sources
-
     pool, _ = chart_pool(default_sources(), cache_dir)
     return [(f"{c['source']}#{c['chart']}", *chart_arrays(c)) for c in closest_charts(pool, targets)]
 
@@ -97,8 +96,6 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
     BenchOutput
         ``extra["summary"]``: one row per (set, budget).
     """
-    from neuraluv_paper.baselines import run_baseline
-
     budgets = sorted(budgets or (QUICK_BUDGETS if quick else BUDGETS))
     preset = preset or ("test" if quick else "paper")
     nkw = neural_options(preset, quick, seed, device, **{"early_stop": False, **overrides})
@@ -197,8 +194,6 @@ def _findings(summary):
 
 
 def _figure(out, summary):
-    from neuraluv import plot
-
     plt = plot.pyplot()
     fig, ax = plt.subplots(figsize=(6, 4))
     for g, col in (("compact", "tab:blue"), ("xatlas", "tab:orange")):

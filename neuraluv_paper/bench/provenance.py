@@ -13,6 +13,7 @@ import json
 import math
 import os
 import platform
+import re
 import shlex
 import subprocess
 import sys
@@ -21,6 +22,7 @@ from pathlib import Path
 
 from neuraluv import plot
 from neuraluv.io import atomic_write, jsonable, write_csv
+from neuraluv.solver import resolve_device
 
 __all__ = [
     "fmt_num", "fmt_pct", "fmt_time", "grey", "bold", "with_paper", "fraction", "GREY_NOTE", "PAPER_NOTE",
@@ -202,7 +204,6 @@ def machine_info(device="auto"):
     """
     import torch
 
-    from neuraluv.solver import resolve_device
 
     dev = resolve_device(device)
     dev_s = str(dev)
@@ -394,7 +395,6 @@ class RowLog:
         return self.rows.get(self.key(key))
 
     def add(self, key, row):
-
         row = jsonable(row)
         k = self.key(key)
         self.rows[k] = row
@@ -488,8 +488,6 @@ def plain(text):
     >>> plain(grey("4.10") + " [5]")
     '4.10† [5]'
     """
-    import re
-
     return re.sub(r'<span style="color:gray">(.*?)</span>', r"\1", text)
 
 

@@ -23,13 +23,28 @@ Camel chart) as the classical anchor, when installed.
 """
 from __future__ import annotations
 
+import tempfile
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 
+from neuraluv import datasets
+from neuraluv.atlas.build import build_atlas
+from neuraluv.atlas.export import read_atlas
+from neuraluv.io import write_obj
+from neuraluv.jacobian import local_frames
+from neuraluv.layout.facts import layout_facts, texel_density
+from neuraluv.layout.validate import validate_layout
+from neuraluv.meshfix import normalize_unit_box
+from neuraluv.metrics import distortion_metrics
+from neuraluv.repair.repair import repair_layout
+from neuraluv_paper import damage
+from neuraluv_paper.baselines.libigl import arap, lscm
 from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table,
                                              save_figure, write_csv, write_markdown)
+from neuraluv_paper.damage import boundary_rows
 
 __all__ = ["bench", "add_arguments", "run", "mouette_untangle"]
 
@@ -46,8 +61,6 @@ def _into_unit_square(UV, margin=0.05):
 
 def _layouts(quick, seed, preset):
     """``[(name, V, F, UV, FUV, kind)]``; kind "good" (damage it) or "broken" (repair as is)."""
-    from neuraluv import datasets
-    from neuraluv_paper.baselines.libigl import arap, lscm
     from neuraluv.solver.chart import solve_chart
 
     out, notes = [], []
@@ -56,7 +69,6 @@ def _layouts(quick, seed, preset):
     r = solve_chart(V, F, preset, seed=seed, device="cpu")
     out.append((name, V, F, _into_unit_square(r.uv), F.copy(), "good"))
     if not quick:
-        from neuraluv.atlas.build import build_atlas
 
         if datasets.available("cow"):
             Vc, Fc = datasets.load("cow")
@@ -79,9 +91,6 @@ def _layouts(quick, seed, preset):
 
 def _cases(name, V, F, UV, FUV, seed, quick):
     """Generated damage on one good layout: ``[(case, UV, FUV, island faces, info)]``."""
-    from neuraluv_paper import damage
-    from neuraluv.layout.facts import layout_facts
-
     f = layout_facts(V, F, UV, FUV)
     sizes = np.bincount(f.label[f.label >= 0], minlength=f.n_islands)
     big = int(np.argmax(sizes))
@@ -133,9 +142,6 @@ def mouette_untangle(V, F, UV, *, scale):
     """
     from mouette.processing.parametrization import untangle as m_untangle
 
-    from neuraluv.jacobian import local_frames
-    from neuraluv.meshfix import normalize_unit_box
-    from neuraluv_paper.damage import boundary_rows
 
     Vn = normalize_unit_box(V)[0]
     K, A = local_frames(Vn, F)
@@ -146,9 +152,6 @@ def mouette_untangle(V, F, UV, *, scale):
 
 
 def _verdict(path):
-    from neuraluv.atlas.export import read_atlas
-    from neuraluv.layout.validate import validate_layout
-
     V, F, UV, FUV = read_atlas(path)
     v = validate_layout(V, F, UV, FUV, check_padding=False)
     mirrored = v["mirrored_islands"]
@@ -157,22 +160,12 @@ def _verdict(path):
 
 
 def _esd(V, F, UV, FUV, faces, scale):
-    from neuraluv.meshfix import normalize_unit_box
-    from neuraluv.metrics import distortion_metrics
-
     m = distortion_metrics(normalize_unit_box(V)[0], F[faces], UV / scale, FUV[faces])
     return float(m["esd"]) if m["valid"] else float("inf")
 
 
 def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouette=True, argv=None, show_progress=True):
     """Run the repair benchmark; writes ``repair.{csv,md}`` and a figure; returns :class:`BenchOutput`."""
-    import tempfile
-
-    from neuraluv.io import write_obj
-    from neuraluv.layout.facts import layout_facts
-    from neuraluv.repair.repair import repair_layout
-    from neuraluv.layout.facts import texel_density
-
     out_dir = Path(output)
     out_dir.mkdir(parents=True, exist_ok=True)
     machine = machine_info("cpu")
@@ -258,7 +251,6 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
     csv_path = write_csv(out_dir / "repair.csv", [{k: v for k, v in r.items() if k != "damage"} for r in rows])
     files.append(csv_path)
     if figure_case is not None:
-        import matplotlib.pyplot as plt
 
         fig = figure_case[1].figure(title=f"{figure_case[0]}: local fold, repaired")
         files.append(save_figure(fig, out_dir / "repair_local_fold.png", dpi=90))

@@ -35,12 +35,27 @@ import math
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order
 
-from neuraluv_paper.bench.provenance import (BenchOutput, print_report, command_line, fmt_num, machine_info, markdown_table,
-                                             save_figure, write_csv, write_markdown)
+from neuraluv import datasets
+from neuraluv.atlas.candidates import seam_charts
+from neuraluv.meshfix import repair_mesh
+from neuraluv.metrics import distortion_metrics
+from neuraluv.solver.config import get_config
+from neuraluv.solver.device import resolve_device
+from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.siren import flat_grad, forward, init_params, leaves
+from neuraluv.topology import face_components, is_disk_like, submesh
+from neuraluv_paper.bench.common import combine_metrics, peak_rss_mb, slim_reference
+from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table,
+                                             print_report, save_figure, write_csv, write_markdown)
+from neuraluv_paper.bench.speed_atlas import atlas_timing
+from neuraluv_paper.bench.speed_pareto import pareto
 
-__all__ = ["bench", "add_arguments", "run", "speed_charts", "grown_disk", "network_floor", "peak_rss_mb", "slim_reference"]
+__all__ = ["bench", "add_arguments", "run", "speed_charts", "grown_disk", "network_floor"]
 
 #: The rows of the speed table: (name, how to build it).
 CHARTS = ["camel", "hand", "bob", "xatlas-100", "xatlas-1k", "disk-10k", "disk-50k"]
@@ -72,11 +87,6 @@ def grown_disk(V, F, n_faces, seed_face=0):
     >>> vi, Fl = submesh(F, f); bool(250 <= len(f) <= 700), is_disk_like(V[vi], Fl)[0]
     (True, True)
     """
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import breadth_first_order
-
-    from neuraluv.topology import face_components
-
     F = np.asarray(F, np.int64)
     m = len(F)
     E = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
@@ -99,11 +109,6 @@ def grown_disk(V, F, n_faces, seed_face=0):
 
 def speed_charts(names, quick=False):
     """``[(name, description, [(V, F), ...])]`` for the speed table (missing data skipped with a note)."""
-    from neuraluv import datasets
-    from neuraluv.atlas.candidates import seam_charts
-    from neuraluv.meshfix import repair_mesh
-    from neuraluv.topology import is_disk_like, submesh
-
     out, notes = [], []
     for name in names:
         try:
@@ -147,26 +152,6 @@ def speed_charts(names, quick=False):
 # --------------------------------------------------------------------------- measurements
 
 
-def peak_rss_mb(reset=False):
-    """Peak resident set size of this process in MB (Linux ``VmHWM``); ``reset`` starts a new peak."""
-    if reset:
-        try:
-            with open("/proc/self/clear_refs", "w") as fh:
-                fh.write("5")
-        except OSError:
-            pass
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("VmHWM:"):
-                    return float(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def network_floor(preps, cfg, device, reps=None):
     """Seconds of one forward + backward pass of the bare chart network(s) at these chart sizes.
 
@@ -176,8 +161,6 @@ def network_floor(preps, cfg, device, reps=None):
     import torch
 
     from neuraluv.solver.chart import batch_plan
-    from neuraluv.solver.engine import make_batch
-    from neuraluv.solver.siren import flat_grad, forward, init_params, leaves
 
     total = 0.0
     for group in batch_plan([len(p.X) for p in preps], 60000, 512):
@@ -209,27 +192,9 @@ def network_floor(preps, cfg, device, reps=None):
     return total
 
 
-def slim_reference(preps, iterations):
-    """SLIM from each chart's own start (the solver's Tutte / un-crushed map); (seconds, area-weighted E_SD, flips)."""
-    from neuraluv.metrics import distortion_metrics
-    from neuraluv.relax import slim_relax
-
-    t = time.perf_counter()
-    uvs = [slim_relax(p.Vn, p.F, p.u_start, iterations) for p in preps]
-    dt = time.perf_counter() - t
-    ms = [distortion_metrics(p.V, p.F, uv * p.scale) for p, uv in zip(preps, uvs)]
-    return dt, _combine(ms, preps), sum(m["flips"] for m in ms)
-
-
-def _combine(metrics, preps):
-    w = np.array([p.A.sum() * p.scale**2 for p in preps])
-    return float(sum(m["esd"] * wi for m, wi in zip(metrics, w)) / w.sum())
-
-
 def _time_preset(preps, cfg, device, max_seconds):
     """End-to-end solve of these prepared charts with ``cfg`` (projected when over ``max_seconds``)."""
     from neuraluv.solver.chart import batch_plan
-    from neuraluv.solver.engine import make_batch, optimise
 
     res = {"rounds": 0, "iterations": 0, "timing": {}, "projected": False}
     t0 = time.perf_counter()
@@ -241,7 +206,6 @@ def _time_preset(preps, cfg, device, max_seconds):
         res["rounds"] += r.rounds
         for k, v in r.timing.items():
             res["timing"][k] = res["timing"].get(k, 0.0) + v
-        from neuraluv.metrics import distortion_metrics
 
         for k, i in enumerate(group):
             p = preps[i]
@@ -252,7 +216,7 @@ def _time_preset(preps, cfg, device, max_seconds):
     res["solve"] = time.perf_counter() - t0
     res["iterations"] = int(max(its)) if its else 0
     metrics = [m for _, m in sorted(metrics, key=lambda x: x[0])]
-    res["esd"] = _combine(metrics, preps)
+    res["esd"] = combine_metrics(metrics, preps)
     res["flips"] = int(sum(m["flips"] for m in metrics))
     res["stops"] = stops
     if "time" in stops and res["iterations"] > 0:
@@ -270,8 +234,6 @@ def bench(charts=None, presets=None, *, quick=False, output="results/speed", dev
     import torch
 
     from neuraluv.solver.chart import prepare_chart
-    from neuraluv.solver.config import get_config
-    from neuraluv.solver.device import resolve_device
 
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -364,8 +326,6 @@ def _markdown(rows, machine, notes, quick):
 
 
 def _figure(rows, path):
-    import matplotlib.pyplot as plt
-
     charts = list(dict.fromkeys(r["chart"] for r in rows))
     presets = list(dict.fromkeys(r["preset"] for r in rows))
     fig, axes = plt.subplots(1, len(presets), figsize=(5.5 * len(presets), 3.8), squeeze=False)
@@ -406,12 +366,10 @@ def add_arguments(p):
 def run(args):
     """CLI entry point: the speed table, or with ``--atlas`` / ``--pareto`` the atlas throughput / the Pareto study."""
     if args.atlas:
-        from neuraluv_paper.bench.speed_atlas import atlas_timing
 
         return print_report(atlas_timing(args.meshes, args.n_generated, output=args.output, quick=args.quick,
                                          show_progress=not args.quiet))
     if args.pareto:
-        from neuraluv_paper.bench.speed_pareto import pareto
 
         return print_report(pareto(output=args.output, device=args.device, quick=args.quick,
                                    show_progress=not args.quiet))

@@ -2,11 +2,17 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+from neuraluv import datasets
+from neuraluv.datasets.generated import generated_asset
+from neuraluv.io import write_obj
 from neuraluv_paper.bench.provenance import (BenchOutput, command_line, machine_info, markdown_table, write_csv,
                                              write_markdown)
 
@@ -25,14 +31,6 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
     the command's own read-back validation of the file it wrote (coverage,
     flips, overlaps, padding), taken from its JSON report.
     """
-    import subprocess
-    import sys
-    import tempfile
-
-    from neuraluv import datasets
-    from neuraluv.datasets.generated import generated_asset
-    from neuraluv.io import write_obj
-
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     machine = machine_info("cpu")

@@ -9,12 +9,17 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 
+from neuraluv import datasets
+from neuraluv.jacobian import local_frames
+from neuraluv.solver.config import get_config
+from neuraluv.solver.device import resolve_device
 from neuraluv_paper.bench import paper_values as PV
+from neuraluv_paper.bench.common import slim_reference
 from neuraluv_paper.bench.provenance import (BenchOutput, command_line, machine_info, markdown_table, save_figure,
                                              write_csv, write_markdown)
-from neuraluv_paper.bench.speed import slim_reference
 
 __all__ = ["pareto", "DEFAULT_GRID", "PARETO_BUDGETS", "PARETO_MESHES"]
 
@@ -50,11 +55,7 @@ def pareto(grid=None, meshes=PARETO_MESHES, *, output="results/speed", device="c
     (features and start included) give one point per budget ``k``. SLIM-100 and
     SLIM-1k from the same starts are run alongside.
     """
-    from neuraluv import datasets
-    from neuraluv.jacobian import local_frames
     from neuraluv.solver.chart import prepare_chart, solve_charts
-    from neuraluv.solver.config import get_config
-    from neuraluv.solver.device import resolve_device
 
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -146,8 +147,6 @@ def _front(med):
 
 
 def _pareto_figure(rows, meshes, path):
-    import matplotlib.pyplot as plt
-
     med = _median_rows(rows, meshes)
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     designs = list(dict.fromkeys(r["design"] for r in med))

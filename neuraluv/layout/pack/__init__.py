@@ -13,17 +13,53 @@ Every packer moves islands by translations, quarter or finer proper rotations an
 one common uniform scale: never a mirror, so orientation (det J > 0) and the one
 texel density are kept.
 """
-from neuraluv.layout.pack.cuts import SPLIT_SHARE, granular_islands
-from neuraluv.layout.pack.raster import raster_pack
-from neuraluv.layout.pack.result import PackResult
-from neuraluv.layout.pack.shelf import shelf_pack
-from neuraluv.layout.pack.tight import (ORDER_JITTER, ORDER_MAX_ISLANDS, PACK_TRIALS, RASTER_MAX_ISLANDS, RASTER_TRIALS,
-                                        SPLIT_GAIN, tight_pack)
-from neuraluv.layout.pack.xatlas_packer import xatlas_pack, xatlas_shape_pack
+from __future__ import annotations
+
+import importlib
 
 #: Packers of :func:`neuraluv.atlas.build_atlas` (the first is the default).
 PACKERS = ("tight", "shelf", "xatlas")
 
+#: The first raster packings :func:`tight_pack` tries: (grid cells per side, rotations per island).
+#: Later trials repeat the first setting with the placement order perturbed (:data:`ORDER_JITTER`).
+RASTER_TRIALS = ((512, 4), (256, 8))
+
+#: Spread (log-normal sigma) of the factors on the islands' areas that perturb the placement order of
+#: :func:`tight_pack`'s later trials: greedy placement is chaotic, and with few large islands the
+#: best of several orders packs several points fuller than largest-first alone.
+ORDER_JITTER = 0.5
+
+#: Default trials of :func:`tight_pack` (the tight packer of ``build_atlas`` and the CLI).
+PACK_TRIALS = 12
+
+#: Perturbed-order trials run only up to this many islands: with many islands one order packs
+#: about as full as another (Cow, 83 islands: 12 trials no fuller than 2, packing time doubled).
+ORDER_MAX_ISLANDS = 48
+
+#: Above this many islands ``tight_pack(method="auto")`` places the shapes with xatlas (faster there).
+RASTER_MAX_ISLANDS = 1000
+
+#: Utilisation (absolute) the cut islands of ``tight_pack(split=...)`` must gain to be kept: cuts add seams.
+SPLIT_GAIN = 0.01
+
+#: :func:`~neuraluv.layout.pack.cuts.granular_islands` halves islands holding more than this share of the total UV area.
+SPLIT_SHARE = 1 / 10
+
+#: name -> module of this package that defines it (imported on first use: the constants above stay cheap to
+#: import, e.g. for the command line's help).
+_WHERE = {"PackResult": "result", "shelf_pack": "shelf", "raster_pack": "raster", "tight_pack": "tight",
+          "xatlas_pack": "xatlas_packer", "xatlas_shape_pack": "xatlas_packer", "granular_islands": "cuts"}
+
 __all__ = ["PACKERS", "PackResult", "shelf_pack", "raster_pack", "tight_pack", "xatlas_pack", "xatlas_shape_pack",
-           "granular_islands", "SPLIT_SHARE", "SPLIT_GAIN", "PACK_TRIALS", "RASTER_TRIALS",
-           "ORDER_JITTER", "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS"]
+           "granular_islands", "SPLIT_SHARE", "SPLIT_GAIN", "PACK_TRIALS", "RASTER_TRIALS", "ORDER_JITTER",
+           "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS"]
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"neuraluv.layout.pack.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'neuraluv.layout.pack' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

@@ -3,14 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from neuraluv.layout.pack import SPLIT_SHARE
 from neuraluv.layout.pack.result import uv_area
 from neuraluv.topology import bisect_faces
 
-__all__ = ["SPLIT_SHARE", "granular_islands"]
-
-#: :func:`granular_islands` halves islands holding more than this share of the total UV area.
-SPLIT_SHARE = 1 / 10
-
+__all__ = ["granular_islands"]
 
 def granular_islands(uvs, faces, max_share=SPLIT_SHARE):
     """Halve every island holding more than ``max_share`` of the total UV area, until none does.

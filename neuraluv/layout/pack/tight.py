@@ -4,6 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from neuraluv.layout import facts
+from neuraluv.layout.pack import (ORDER_JITTER, ORDER_MAX_ISLANDS, PACK_TRIALS, RASTER_MAX_ISLANDS, RASTER_TRIALS,
+                                  SPLIT_GAIN)
 from neuraluv.layout.pack.cuts import granular_islands
 from neuraluv.layout.pack.raster import island_outlines, raster_pack
 from neuraluv.layout.pack.result import fullest
@@ -11,31 +13,7 @@ from neuraluv.layout.pack.xatlas_packer import xatlas_shape_pack
 from neuraluv.layout.rigid import rotate_to_min_box
 from neuraluv.topology import submesh
 
-__all__ = ["tight_pack", "RASTER_TRIALS", "ORDER_JITTER", "PACK_TRIALS", "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS",
-           "SPLIT_GAIN"]
-
-#: The first raster packings :func:`tight_pack` tries: (grid cells per side, rotations per island).
-#: Later trials repeat the first setting with the placement order perturbed (:data:`ORDER_JITTER`).
-RASTER_TRIALS = ((512, 4), (256, 8))
-
-#: Spread (log-normal sigma) of the factors on the islands' areas that perturb the placement order of
-#: :func:`tight_pack`'s later trials: greedy placement is chaotic, and with few large islands the
-#: best of several orders packs several points fuller than largest-first alone.
-ORDER_JITTER = 0.5
-
-#: Default trials of :func:`tight_pack` (the tight packer of ``build_atlas`` and the CLI).
-PACK_TRIALS = 12
-
-#: Perturbed-order trials run only up to this many islands: with many islands one order packs
-#: about as full as another (Cow, 83 islands: 12 trials no fuller than 2, packing time doubled).
-ORDER_MAX_ISLANDS = 48
-
-#: Above this many islands ``tight_pack(method="auto")`` places the shapes with xatlas (faster there).
-RASTER_MAX_ISLANDS = 1000
-
-#: Utilisation (absolute) the cut islands of ``tight_pack(split=...)`` must gain to be kept: cuts add seams.
-SPLIT_GAIN = 0.01
-
+__all__ = ["tight_pack"]
 
 def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, trials=PACK_TRIALS, rotate=True,
                method="auto", split=None, xyz=None):

@@ -8,6 +8,8 @@ image — so it is switched off: only the placement xatlas chooses is read back
 from __future__ import annotations
 
 import numpy as np
+import xatlas
+from scipy.spatial import ConvexHull, QhullError
 
 from neuraluv.jacobian import signed_areas_2d
 from neuraluv.layout.pack.result import PackResult, fullest, min_gap, uv_area
@@ -46,8 +48,6 @@ def xatlas_pack(uvs, faces, *, padding=2.0, resolution=1024):
     ValueError
         When xatlas needs more than one atlas page.
     """
-    import xatlas
-
     uvs = [np.asarray(u, float) for u in uvs]
     lo = np.array([u.min(0) for u in uvs])
     size = np.array([u.max(0) - u.min(0) for u in uvs])
@@ -100,8 +100,6 @@ def xatlas_pack(uvs, faces, *, padding=2.0, resolution=1024):
 
 
 def _xatlas_place(start, allf, tpu, pad, resolution, brute_force):
-    import xatlas
-
     at = xatlas.Atlas()
     at.add_uv_mesh(start, allf)
     po = xatlas.PackOptions()
@@ -265,8 +263,6 @@ def _proxies(uvs, faces, hull=()):
     near-degenerate triangles (xatlas drops them and may then place the pieces of the
     chart apart) or listed in ``hull``, its convex hull.
     """
-    from scipy.spatial import ConvexHull, QhullError
-
     sent, sent_f = [], []
     quad = np.array([[0, 1, 2], [0, 2, 3]])
     for i, (u, f) in enumerate(zip(uvs, faces)):
