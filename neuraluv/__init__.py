@@ -9,12 +9,17 @@ Layers (each imports only the ones above it in this list):
 * the geometry core, flat and torch-free: :mod:`~neuraluv.errors`,
   :mod:`~neuraluv.io`, :mod:`~neuraluv.meshfix`, :mod:`~neuraluv.topology`,
   :mod:`~neuraluv.jacobian`, :mod:`~neuraluv.metrics`, :mod:`~neuraluv.spectral`,
-  :mod:`~neuraluv.tutte`, :mod:`~neuraluv.relax`,
-  :mod:`~neuraluv.plot`, :mod:`~neuraluv.check`, :mod:`~neuraluv.datasets`;
+  :mod:`~neuraluv.tutte`, :mod:`~neuraluv.relax`, :mod:`~neuraluv.check`,
+  :mod:`~neuraluv.datasets`;
+* :mod:`neuraluv.layout`: a UV layout over a mesh (its facts, overlaps, validation,
+  rigid fits, free space, the packers); :mod:`neuraluv.plot`: every figure;
 * :mod:`neuraluv.solver`: the SIREN chart solver (torch);
-* :mod:`neuraluv.atlas`: unwrap, atlas construction, UV repair, sweeps;
-* :mod:`neuraluv_paper.baselines`: libigl, BFF, xatlas, Blender, OptCuts;
-* :mod:`neuraluv_paper.bench`: the paper's tables; :mod:`neuraluv.cli`: the command line.
+* :mod:`neuraluv.atlas` (unwrap, atlases, sweeps) and :mod:`neuraluv.repair`
+  (``check --uv``, repair of supplied layouts), both clients of :mod:`~neuraluv.layout`;
+* :mod:`neuraluv.cli`: the command line.
+
+The paper's reproduction harness (benchmarks, baselines, NTK probes, the claims
+checklist) is the separate package :mod:`neuraluv_paper`, a client of this one.
 
 The names below are re-exported lazily: ``import neuraluv`` loads neither
 torch nor scipy.
@@ -23,7 +28,7 @@ from __future__ import annotations
 
 import importlib
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 #: name -> module that defines it (imported on first access).
 _EXPORTS = {
@@ -39,6 +44,7 @@ _EXPORTS = {
     "ChartResult": "solver.result", "solve_chart": "solver.chart", "prepare_chart": "solver.chart",
     "unwrap": "atlas.unwrap", "build_atlas": "atlas.build", "repair_layout": "repair.repair",
     "diagnose_layout": "repair.diagnose",
+    "layout_facts": "layout.facts", "validate_layout": "layout.validate",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

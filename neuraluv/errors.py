@@ -39,3 +39,20 @@ def missing_extra(exc):
     extra = EXTRAS.get(name)
     hint = f'pip install "neuraluv[{extra}]"' if extra else f"pip install {name}"
     return NeuralUVError(f"this needs the optional package {name}: {hint}")
+
+
+def require(module):
+    """Raise :func:`missing_extra`'s error now, before any work, when ``module`` is not installed.
+
+    Examples
+    --------
+    >>> require("json")
+    >>> require("surely_not_installed_anywhere")
+    Traceback (most recent call last):
+    ...
+    neuraluv.errors.NeuralUVError: this needs the optional package surely_not_installed_anywhere: pip install surely_not_installed_anywhere
+    """
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        raise missing_extra(ModuleNotFoundError(f"No module named {module!r}", name=module))

@@ -148,3 +148,15 @@ def test_the_command_line_parser_loads_no_numerics():
                         "print(sorted(m for m in ('numpy', 'scipy', 'torch', 'shapely') if m in sys.modules))"],
                        capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+def test_a_command_needing_a_missing_extra_refuses_before_any_work(tmp_path):
+    from conftest import write_mesh
+    from neuraluv.datasets import sphere
+
+    write_mesh(tmp_path / "s.obj", *sphere(1))
+    out = tmp_path / "s_uv.obj"
+    r = _run(f"from neuraluv.cli import main; raise SystemExit(main(['atlas', {str(tmp_path / 's.obj')!r}, '-o', "
+             f"{str(out)!r}, '--renders', {str(tmp_path / 'r')!r}, '--preset', 'test']))")
+    assert r.returncode == 2 and 'pip install "neuraluv[render]"' in r.stderr, r.stderr
+    assert not out.exists()  # refused before the atlas was built, not after writing it

@@ -15,7 +15,7 @@ from pathlib import Path
 from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_options, nonneg_float, positive_float,
                                   positive_int, time_budget_option)
 from neuraluv.cli.paths import check_paths
-from neuraluv.errors import NeuralUVError
+from neuraluv.errors import NeuralUVError, require
 from neuraluv.layout.pack import ORDER_MAX_ISLANDS, PACK_TRIALS, PACKERS
 
 __all__ = ["register"]
@@ -71,6 +71,7 @@ def cmd_atlas(args):
     _, out, _ = check_paths(args.input, args.output, args.report, output_exts=(".obj", ".glb"))
     if args.renders:
         check_paths(output=args.renders, output_folder=True)
+        require("pyvista")  # the renders need the render extra: say so before any work
     if args.resolution < 16 or args.padding < 0 or 2 * args.padding >= args.resolution / 2:
         raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
     resolve_device(args.device)
@@ -196,6 +197,7 @@ def cmd_sweep(args):
     from neuraluv.atlas.sweep import sweep
 
     check_paths(output=args.output, output_folder=True)
+    require("dask")
     res = sweep(args.inputs, args.output, scheduler=args.scheduler, n_workers=args.workers, timeout=args.timeout,
                 resume=not args.no_resume, progress=not args.quiet, preset=args.preset, packer=args.packer,
                 resolution=args.resolution, padding=args.padding, iterations=args.iterations,
