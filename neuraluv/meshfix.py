@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-import igl
 import numpy as np
 
 __all__ = ["RepairReport", "repair_mesh", "normalize_unit_box", "face_areas", "is_triangle_soup", "SOUP_COMPONENTS"]
@@ -93,6 +92,7 @@ def repair_mesh(V, F, *, weld=False, weld_tol=1e-10, area_tol=1e-14):
     diag = float(np.linalg.norm(V.max(0) - V.min(0))) if len(V) else 1.0
     diag = diag if diag > 0 else 1.0
     if weld and len(V):
+        import igl  # lazily: this module (the unit box, face areas) is imported by light ones
 
         SV, SVI, SVJ = igl.remove_duplicate_vertices(V, weld_tol * diag)
         rep.merged_vertices = len(V) - len(SV)

@@ -335,8 +335,9 @@ def results_index(root=None):
 
     Examples
     --------
-    >>> results_index("/nonexistent").splitlines()[0]
-    '| Report | Produced by | Commit | The paper's claims on our data |'
+    >>> print(results_index("/nonexistent"))
+    | Report | Produced by | Commit | The paper's claims on our data |
+    |:--|:--|:--|:--|
     """
 
     root = results_dir() if root is None else Path(root)

@@ -135,10 +135,10 @@ def test_resume_recomputes_unavailable_rows(tmp_path, monkeypatch):
     first = bench(["disk"], ["lscm", "bff-cli"], quick=True, output=tmp_path, figures=False, show_progress=False)
     assert [r["status"] for r in first.rows] == ["ok", "unavailable"]
     calls = []
-    import neuraluv_paper.baselines as B
+    import neuraluv_paper.bench.compact as runner
 
-    real = B.run_baseline
-    monkeypatch.setattr(B, "run_baseline", lambda m, *a, **k: calls.append(m) or real(m, *a, **k))
+    real = runner.run_baseline
+    monkeypatch.setattr(runner, "run_baseline", lambda m, *a, **k: calls.append(m) or real(m, *a, **k))
     again = bench(["disk"], ["lscm", "bff-cli"], quick=True, output=tmp_path, figures=False, show_progress=False,
                   resume=True)
     assert calls == ["bff-cli"] and again.skipped == 1
@@ -263,7 +263,7 @@ def test_generated_quick_counts_coverage_routes_and_marks_blender_not_run(tmp_pa
 def test_generated_sweep_takes_the_first_n_assets_even_when_the_folder_holds_more(tmp_path, monkeypatch):
     import types
 
-    import neuraluv.atlas.sweep as sweep_mod
+    import neuraluv_paper.bench.generated as runner
     from neuraluv_paper.bench.generated import _sweep
 
     src = tmp_path / "cache" / "assets"
@@ -276,7 +276,7 @@ def test_generated_sweep_takes_the_first_n_assets_even_when_the_folder_holds_mor
         seen["inputs"] = [Path(p).name for p in inputs]
         return types.SimpleNamespace(summary={"tried": len(inputs)})
 
-    monkeypatch.setattr(sweep_mod, "sweep", fake_sweep)
+    monkeypatch.setattr(runner, "sweep", fake_sweep)
     assert _sweep(tmp_path, 2, "test", 1, True, True) == {"tried": 2}
     assert seen["inputs"] == ["gen_0000.obj", "gen_0001.obj"]
 
