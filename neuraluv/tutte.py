@@ -104,7 +104,6 @@ def tutte(V, F, *, weights="uniform", bnd=None, frames=None):
         W.data[:] = 1.0
         L = (W - sp.diags(np.asarray(W.sum(axis=1)).ravel())).tocsr()
     elif weights == "cotangent":
-
         L = cotangent_laplacian(V, F).tocsr()
     else:
         raise ValueError(f"weights must be 'uniform' or 'cotangent', got {weights!r}")

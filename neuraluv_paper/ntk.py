@@ -217,7 +217,6 @@ def ntk_gram(model, X):
         buffers["base"] = torch.zeros((1,) + tuple(b.shape[1:]), dtype=b.dtype, device=b.device)
     theta = torch.zeros(s, s, dtype=torch.float64, device=p0.device)
     for name, p in params.items():
-
         def f(q, xi, name=name):  # one sample: (d,) -> (2,)
             out = functional_call(model, ({**params, name: q}, buffers), (xi[None],))
             return out[0].to(q.dtype)

@@ -57,3 +57,53 @@ def test_summarize_counts_only_successes():
             {"ok": False, "faces": 0, "flips": -1, "neural_share": 0.0, "time": 9.0}]
     s = summarize(rows)
     assert (s["tried"], s["ok"], s["faces"], s["median_time"]) == (2, 1, 10, 1.0)
+
+
+def _dask_cli():
+    import shutil
+    import sys
+    from pathlib import Path
+
+    exe = Path(sys.executable).with_name("dask")
+    return str(exe) if exe.exists() else shutil.which("dask")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(_dask_cli() is None, reason="the dask command line is not installed (pip install 'neuraluv[sweep]')")
+def test_sweep_on_a_separately_started_cluster_with_relative_paths(tmp_path, monkeypatch, capsys):
+    """`dask scheduler` and two `dask worker`s started in another folder; the sweep names its inputs relatively."""
+    import json
+    import subprocess
+    import time
+
+    from neuraluv.cli import main
+
+    dask = _dask_cli()
+    (tmp_path / "workers").mkdir()
+    (tmp_path / "in").mkdir()
+    for i in (1, 4):
+        V, F, info = generated_asset(i, res=12)
+        write_obj(tmp_path / "in" / f"{info['name']}.obj", V, F, np.zeros((len(V), 2)))
+    sched_file = tmp_path / "scheduler.json"
+    quiet = dict(cwd=tmp_path / "workers", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    procs = [subprocess.Popen([dask, "scheduler", "--scheduler-file", str(sched_file), "--port", "0",
+                               "--dashboard-address", ":0", "--no-show"], **quiet)]
+    try:
+        end = time.time() + 60
+        while not sched_file.exists() and time.time() < end:
+            time.sleep(0.2)
+        address = json.loads(sched_file.read_text())["address"]
+        procs += [subprocess.Popen([dask, "worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
+                                   **quiet) for _ in range(2)]
+        monkeypatch.chdir(tmp_path)  # the sweep runs elsewhere than the workers, and names its paths relatively
+        code = main(["sweep", "in", "-o", "out", "--scheduler", address, "--in-process", "--preset", "test",
+                     "--iterations", "10", "--resolution", "512", "--quiet"])
+    finally:
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            p.wait(timeout=30)
+    out = capsys.readouterr().out
+    assert code == 0, out
+    rows = list(csv.DictReader(open(tmp_path / "out" / "results.csv")))
+    assert [r["ok"] for r in rows] == ["True", "True"], rows

@@ -30,7 +30,6 @@ def write_atlas(path, V, F, UV, FUV):
     if ext == ".obj":
         write_obj(path, V, F, UV, FUV)
     elif ext in (".glb", ".gltf"):
-
         pairs = np.stack([np.asarray(F).reshape(-1), np.asarray(FUV).reshape(-1)], 1)
         uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
         mesh = trimesh.Trimesh(vertices=np.asarray(V, float)[uniq[:, 0]], faces=inv.reshape(-1, 3),

@@ -211,7 +211,9 @@ def sweep(inputs, out_dir, *, scheduler=None, n_workers=2, threads_per_worker=1,
     inputs : folder, file, ``.txt`` list, or a list of those.
     out_dir : output folder.
     scheduler : str, optional
-        Address of a running dask scheduler; default a ``LocalCluster``.
+        Address of a running dask scheduler (``tcp://host:port``); default a ``LocalCluster``. Its
+        workers must see the same files (a shared filesystem) and run the same ``neuraluv`` version:
+        inputs and outputs are sent to them as absolute paths.
     n_workers, threads_per_worker, processes : LocalCluster settings.
     timeout : float, per-asset seconds.
     resume : bool, skip assets whose stored report passed validation.
@@ -236,7 +238,9 @@ def sweep(inputs, out_dir, *, scheduler=None, n_workers=2, threads_per_worker=1,
         assets = assets[: int(limit)]
     if not assets:
         raise NeuralUVError("no mesh files found (extensions: " + ", ".join(MESH_EXTS) + ")")
-    out_dir = Path(out_dir)
+    # workers of a separately started cluster run in their own working folders: send absolute paths
+    assets = [Path(p).resolve() for p in assets]
+    out_dir = Path(out_dir).resolve()
     out_dir.mkdir(parents=True, exist_ok=True)
     own = []
     if client is None:
@@ -254,7 +258,6 @@ def sweep(inputs, out_dir, *, scheduler=None, n_workers=2, threads_per_worker=1,
                 for i, p in enumerate(assets)]
         bar = None
         if progress:
-
             bar = tqdm(total=len(futs), desc="assets", dynamic_ncols=True)
         rows = []
         for f in as_completed(futs):

@@ -240,7 +240,6 @@ class LayoutFacts:
     def overlaps(self):
         """Overlapping pairs of oriented faces (:func:`~neuraluv.layout.overlap.find_overlaps`), computed once."""
         if "overlaps" not in self._cache:
-
             self._cache["overlaps"] = find_overlaps(self)
         return self._cache["overlaps"]
 

@@ -373,7 +373,6 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     logs = [[] for _ in preps]
     bar = None
     if progress:
-
         if len(preps) == 1:
             bar = tqdm(total=cfg.iterations, desc=labels[0], leave=False, dynamic_ncols=True)
         else:

@@ -101,7 +101,6 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     variants = list(variants or VARIANTS)
     bad = [v for v in variants if v not in VARIANTS]
     if bad:
-
         raise NeuralUVError(f"unknown ablation variant(s) {bad}; choose from {list(VARIANTS)}")
     if quick:
         overrides = {"iterations": 40, "retries": 0, **overrides}

@@ -278,7 +278,6 @@ def run(args):
         outs.append(bff_agreement(args.meshes, output=args.output, repeats=1 if args.quick else args.repeats,
                                   show_progress=not args.quiet, args=args))
     if args.optcuts_sample:
-
         if optcuts_binary() is None:
             raise NeuralUVError("OptCuts binary not found: run `make baselines` (or set NEURALUV_OPTCUTS)")
         outs.append(optcuts_sample(args.optcuts_sample, output=args.output, resume=args.resume,

@@ -98,15 +98,12 @@ def _load_source(name):
         V = np.asarray(m.points, float)
         F = np.asarray(m.faces).reshape(-1, 4)[:, 1:].astype(np.int64)
     elif name == "sphere":
-
         V, F = sphere(3)
     else:
-
         V, F = load(name)
 
     V, F, _, _ = repair_mesh(V, F)
     if sub:
-
         for _ in range(sub):
             V, F = trimesh.remesh.subdivide(V, F)
         V, F = np.asarray(V, float), np.asarray(F, np.int64)
@@ -234,7 +231,6 @@ def chart_arrays(c):
     """``(V, F)`` of a pool entry, subdividing a :func:`subdivided_charts` copy on demand."""
     V, F = c["V"], c["F"]
     if c.get("level"):
-
         for _ in range(c["level"]):
             V, F = trimesh.remesh.subdivide(V, F)
         V, F = np.asarray(V, float), np.asarray(F, np.int64)

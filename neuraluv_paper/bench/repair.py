@@ -69,7 +69,6 @@ def _layouts(quick, seed, preset):
     r = solve_chart(V, F, preset, seed=seed, device="cpu")
     out.append((name, V, F, _into_unit_square(r.uv), F.copy(), "good"))
     if not quick:
-
         if datasets.available("cow"):
             Vc, Fc = datasets.load("cow")
             a = build_atlas(Vc, Fc, preset=preset, seed=seed, device="cpu", progress=False)
@@ -251,7 +250,6 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
     csv_path = write_csv(out_dir / "repair.csv", [{k: v for k, v in r.items() if k != "damage"} for r in rows])
     files.append(csv_path)
     if figure_case is not None:
-
         fig = figure_case[1].figure(title=f"{figure_case[0]}: local fold, repaired")
         files.append(save_figure(fig, out_dir / "repair_local_fold.png", dpi=90))
         plt.close(fig)

@@ -366,11 +366,9 @@ def add_arguments(p):
 def run(args):
     """CLI entry point: the speed table, or with ``--atlas`` / ``--pareto`` the atlas throughput / the Pareto study."""
     if args.atlas:
-
         return print_report(atlas_timing(args.meshes, args.n_generated, output=args.output, quick=args.quick,
                                          show_progress=not args.quiet))
     if args.pareto:
-
         return print_report(pareto(output=args.output, device=args.device, quick=args.quick,
                                    show_progress=not args.quiet))
     return print_report(bench(args.charts or args.meshes, args.presets, quick=args.quick, output=args.output,
