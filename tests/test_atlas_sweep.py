@@ -10,7 +10,7 @@ from neuraluv.atlas.sweep import atlas_asset, list_assets, summarize, sweep  # n
 from neuraluv.datasets.generated import generated_asset  # noqa: E402
 from neuraluv.io import write_obj  # noqa: E402
 
-KW = dict(preset="test", iterations=10, resolution=512, padding=4)
+KW = dict(preset="test", iterations=10, resolution=512, padding=4, pack_trials=2)
 
 
 @pytest.fixture

@@ -176,7 +176,7 @@ def test_cli_check_atlas_and_errors(tmp_path, capsys):
     assert all(f["meaning"] and f["repair"] for f in chk["findings"])
     out, rep = tmp_path / "a.obj", tmp_path / "a.json"
     rc = main(["atlas", str(src), "-o", str(out), "--report", str(rep), "--preset", "test", "--iterations", "10",
-               "--resolution", "512", "--threads", "1", "--quiet"])
+               "--resolution", "512", "--threads", "1", "--quiet", "--pack-trials", "2"])
     assert rc == 0
     r = json.loads(rep.read_text())
     assert r["ok"] and r["readback"]["flips"] == 0 and r["readback"]["covered_faces"] == r["totals"]["repaired_faces"]

@@ -20,6 +20,8 @@ from neuraluv.cli import main
 from neuraluv.io import write_obj
 
 FAST = ["--preset", "test", "--quiet"]
+#: atlas runs here test robustness, not packing: two packing trials instead of the default twelve
+ATLAS_FAST = [*FAST, "--pack-trials", "2"]
 
 
 def _snapshot(folder):
@@ -102,7 +104,7 @@ def test_unwritable_report_is_refused_before_the_output_is_written(tmp_path, cha
 
 @pytest.mark.parametrize("name", ["x.png", "x", "x.json"])
 def test_unknown_output_extension_is_refused(tmp_path, chart, capfd, name):
-    code, _, err = _run(["atlas", chart, "-o", tmp_path / name, *FAST], capfd)
+    code, _, err = _run(["atlas", chart, "-o", tmp_path / name, *ATLAS_FAST], capfd)
     _one_line_error(code, err, "must end in")
 
 
@@ -123,7 +125,7 @@ def test_fifo_input_is_refused(tmp_path, capfd):
     (["--iterations", "0"], ">= 1"), (["--preset", "nope"], "invalid choice"),
 ])
 def test_bad_flags_are_one_line_errors(tmp_path, chart, capfd, flags, word):
-    code, _, err = _run(["atlas", chart, "-o", tmp_path / "o.obj", *FAST, *flags], capfd)
+    code, _, err = _run(["atlas", chart, "-o", tmp_path / "o.obj", *ATLAS_FAST, *flags], capfd)
     _one_line_error(code, err, word)
     assert not (tmp_path / "o.obj").exists()
 
@@ -221,7 +223,7 @@ def test_fragments_are_refused_by_unwrap_and_handled_by_atlas(tmp_path, capfd):
     t = time.perf_counter()
     code, _, err = _run(["unwrap", p, "-o", tmp_path / "o.obj", *FAST], capfd)
     _one_line_error(code, err, "atlas")
-    code, _, err = _run(["atlas", p, "-o", tmp_path / "a.obj", *FAST], capfd)
+    code, _, err = _run(["atlas", p, "-o", tmp_path / "a.obj", *ATLAS_FAST], capfd)
     assert code == 0, err
     _valid_output(tmp_path / "a.obj")
     assert time.perf_counter() - t < 240  # a hang guard, not a speed target (that is `neuraluv bench speed --atlas`)
@@ -298,7 +300,7 @@ def test_garbage_files_are_one_line_errors(tmp_path, capfd, ext, kind):
     p = tmp_path / f"garbage{ext}"
     p.write_bytes(GARBAGE[kind])
     before = _snapshot(tmp_path)
-    for cmd in (["check", p], ["atlas", p, "-o", tmp_path / "o.obj", *FAST]):
+    for cmd in (["check", p], ["atlas", p, "-o", tmp_path / "o.obj", *ATLAS_FAST]):
         code, _, err = _run(cmd, capfd)
         _one_line_error(code, err)
     assert _snapshot(tmp_path) == before
@@ -336,7 +338,7 @@ def test_degenerate_geometry_is_refused_or_atlassed_validly(tmp_path, capfd, cas
     p = tmp_path / f"{case}.obj"
     text = "\n".join([f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in V] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in F]) + "\n"
     p.write_text(text)
-    code, _, err = _run(["atlas", p, "-o", tmp_path / "o.obj", *FAST], capfd)
+    code, _, err = _run(["atlas", p, "-o", tmp_path / "o.obj", *ATLAS_FAST], capfd)
     if code == 0:
         _valid_output(tmp_path / "o.obj")
     else:
