@@ -10,7 +10,8 @@ from neuraluv.atlas.sweep import atlas_asset, list_assets, summarize, sweep  # n
 from neuraluv.datasets.generated import generated_asset  # noqa: E402
 from neuraluv.io import write_obj  # noqa: E402
 
-KW = dict(preset="test", iterations=10, resolution=512, padding=4, pack_trials=2)
+#: sweeps here test scheduling, resume and tables, not packing: the shelf packer (milliseconds)
+KW = dict(preset="test", iterations=10, resolution=512, padding=4, packer="shelf")
 
 
 @pytest.fixture
@@ -97,7 +98,7 @@ def test_sweep_on_a_separately_started_cluster_with_relative_paths(tmp_path, mon
                                    **quiet) for _ in range(2)]
         monkeypatch.chdir(tmp_path)  # the sweep runs elsewhere than the workers, and names its paths relatively
         code = main(["sweep", "in", "-o", "out", "--scheduler", address, "--in-process", "--preset", "test",
-                     "--iterations", "10", "--resolution", "512", "--quiet"])
+                     "--iterations", "10", "--resolution", "512", "--packer", "shelf", "--quiet"])
     finally:
         for p in procs:
             p.terminate()
