@@ -192,3 +192,18 @@ def test_free_space_moves_an_island_the_least_and_keeps_the_padding():
     full = FreeSpace([box(0, 0, 1, 1)], resolution=64, padding=1)
     assert full.place(uv, T).uv is None
 
+
+
+def test_dilate_is_the_binary_dilation_by_a_disk():
+    from scipy import ndimage
+
+    from neuraluv.layout.raster import dilate, disk
+
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        h, w = rng.integers(1, 40, 2)
+        r = int(rng.integers(1, 8))
+        m = rng.random((h, w)) < rng.uniform(0.01, 0.5)
+        assert np.array_equal(dilate(m, r), ndimage.binary_dilation(np.pad(m, r), disk(r)))
+        big = np.pad(m, r + 2)
+        assert np.array_equal(dilate(big, r, grow=False), ndimage.binary_dilation(big, disk(r)))

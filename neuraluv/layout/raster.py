@@ -11,9 +11,11 @@ unit covers cell ``(r, c)`` of its mask when it covers UV cell
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from PIL import Image, ImageDraw
-from scipy import fft, ndimage
+from scipy import fft
 
 __all__ = ["rasterise", "disk", "dilate", "Page"]
 
@@ -76,6 +78,11 @@ def disk(r):
 def dilate(mask, r, *, grow=True):
     """``mask`` grown by a disk of ``r`` cells (with ``grow``, padded by ``r`` on every side first).
 
+    Exactly the binary dilation by :func:`disk` (``scipy.ndimage.binary_dilation(mask, disk(r))``),
+    computed as the union of the disk's horizontal chords: each row is dilated by the chord's
+    half-width with a running sum, then shifted by the chord's row offset — a few array
+    operations per row offset instead of one per cell of the disk.
+
     Examples
     --------
     >>> dilate(np.ones((1, 1), bool), 1).astype(int).tolist()
@@ -84,8 +91,22 @@ def dilate(mask, r, *, grow=True):
     r = int(r)
     if r <= 0:
         return mask.copy()
-    m = np.pad(mask, r) if grow else mask
-    return ndimage.binary_dilation(m, disk(r))
+    m = np.pad(mask, r) if grow else np.asarray(mask, bool)
+    H, W = m.shape
+    run = np.zeros((H, W + 2 * r + 1), np.int32)  # running sums over the rows, r zero cells beyond each end
+    np.cumsum(m, axis=1, out=run[:, r + 1:W + r + 1])
+    run[:, W + r + 1:] = run[:, W + r:W + r + 1]
+    out = np.zeros((H, W), bool)
+    rows = {}
+    for dy in range(-r, r + 1):
+        w = math.isqrt(r * r - dy * dy)  # the chord's half-width: |dx| <= w  <=>  dx² + dy² <= r²
+        if w not in rows:
+            rows[w] = run[:, r + w + 1:r + w + 1 + W] > run[:, r - w:r - w + W]
+        if dy >= 0:
+            out[dy:] |= rows[w][:H - dy]
+        else:
+            out[:H + dy] |= rows[w][-dy:]
+    return out
 
 
 class Page:

@@ -44,6 +44,7 @@ def _place(masks, grid, dil, border, rule, pages_max):
     pages, ext, out = [], [], []
     for cands in masks:
         best = None
+        grown = [dilate(m, dil) for m in cands]  # once per island and rotation, whatever the page
         for page in range(pages_max):
             if page == len(pages):
                 pages.append(Page((size, size)))
@@ -53,7 +54,7 @@ def _place(masks, grid, dil, border, rule, pages_max):
                 h, w = m.shape
                 if h > grid - 2 * border or w > grid - 2 * border:
                     continue
-                free = pages[page].free(dilate(m, dil))[border:grid - border - h + 1, border:grid - border - w + 1]
+                free = pages[page].free(grown[k])[border:grid - border - h + 1, border:grid - border - w + 1]
                 if rule == "corner":  # the first free spot in reading order
                     j = int(np.argmax(free.ravel()))
                     if not free.ravel()[j]:
