@@ -235,7 +235,7 @@ def walk():
     return mods, per_mod, edges, self_imports
 
 
-def _sccs(nodes, adj):
+def strongly_connected(nodes, adj):
     """Tarjan's strongly connected components (iterative)."""
     index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
     for root in nodes:
@@ -300,7 +300,7 @@ def cycles(mods, edges):
         for (a, b), k in edges.items():
             if k & kinds:
                 adj[a].add(b)
-        comps = [c for c in _sccs(sorted(mods), adj) if len(c) > 1]
+        comps = [c for c in strongly_connected(sorted(mods), adj) if len(c) > 1]
         out[label] = {"components": comps,
                       "shortest_cycles": {m: " -> ".join(_shortest_cycle(m, adj, set(c)) or [])
                                           for c in comps for m in c}}

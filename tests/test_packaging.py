@@ -84,36 +84,13 @@ def _import_graph(root, package):
 
 
 def _cycles(graph):
-    """Strongly connected components with more than one module (Tarjan)."""
-    index, low, stack, on, out, n = {}, {}, [], set(), [], [0]
+    """Strongly connected components of more than one module (data_scripts/import_graph.py's Tarjan)."""
+    import importlib.util
 
-    def visit(v):
-        index[v] = low[v] = n[0]
-        n[0] += 1
-        stack.append(v)
-        on.add(v)
-        for w in graph[v]:
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                out.append(sorted(comp))
-
-    sys.setrecursionlimit(10000)
-    for v in graph:
-        if v not in index:
-            visit(v)
-    return out
+    spec = importlib.util.spec_from_file_location("import_graph", ROOT / "data_scripts" / "import_graph.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    return [c for c in tool.strongly_connected(sorted(graph), graph) if len(c) > 1]
 
 
 @pytest.mark.parametrize("package", ["neuraluv", "neuraluv_paper"])
