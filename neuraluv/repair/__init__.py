@@ -10,11 +10,11 @@ are NumPy/SciPy/shapely and do not import torch.
 ``untangle``   Garanzha et al. 2021 untangling; flip-free polish of the stable objective
 ``local``      fold repair in the smallest ring-grown region that works
 ``repair``     the escalation for a whole layout, the diff and the report
-``damage``     generated damage for ``neuraluv bench repair``
 =============  ==============================================================
 
 What a layout is — its facts, overlaps, validation, island placement and packing —
-lives in :mod:`neuraluv.layout`, shared with the atlas.
+lives in :mod:`neuraluv.layout`, shared with the atlas; generated damage for the
+benchmark is the harness's (:mod:`neuraluv_paper.damage`).
 """
 from __future__ import annotations
 

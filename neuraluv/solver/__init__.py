@@ -10,8 +10,11 @@
 ``lbfgs``          L-BFGS memory of a batch in compact form
 ``trace``          the per-round trace of a batch, in preallocated chunks
 ``chart``          :func:`prepare_chart`, :func:`solve_chart`, :func:`solve_charts`
-``ntk``            NTK–LBO probes of the chart network (paper Table 5)
+``film``           UV snapshots of a solve through its callback (the notebooks' film strips)
 =================  ==========================================================
+
+The NTK–LBO probes of the chart network (the paper's Table 4) are the harness's
+(:mod:`neuraluv_paper.ntk`).
 
 ``import neuraluv.solver`` loads only the torch-free configuration; the rest
 is imported on first use.
