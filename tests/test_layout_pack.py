@@ -7,6 +7,8 @@ import pytest
 from neuraluv.jacobian import signed_areas_2d
 from neuraluv.layout import validate_layout
 from neuraluv.layout.pack import PACK_TRIALS, raster_pack, shelf_pack, tight_pack
+from neuraluv.layout.pack.raster import largest_fit
+from neuraluv.layout.pack.result import min_gap
 
 from conftest import l_shaped_islands, strip_island
 
@@ -85,6 +87,32 @@ def test_raster_pack_nests_irregular_shapes_fuller_than_boxes():
     x = tight_pack(uvs, fs, padding=4, resolution=512, method="xatlas")
     assert r.padding_texels >= 4 and x.padding_texels >= 4
     assert r.utilisation > x.utilisation
+
+
+@pytest.mark.parametrize("start", [0.5, 2.9, 3.05, 9.0])
+def test_largest_fit_brackets_the_largest_fitting_scale_from_any_start(start):
+    calls = []
+
+    def attempt(s):
+        calls.append(s)
+        return (s,) if s <= 3.0 else None
+
+    s = largest_fit(attempt, start, 10.0, 0.01)[0]
+    assert 3.0 / 1.01 <= s <= 3.0
+    # galloping from a close start costs a few placements (a bisection of [hi/2, hi] costs 7), a far one more
+    assert len(calls) <= (6 if abs(np.log(start / 3.0)) < 0.05 else 16)
+    if start > 3.0:  # without a search downwards a start that does not fit gives nothing
+        assert largest_fit(attempt, start, 10.0, 0.01, down=False) is None
+    with pytest.raises(ValueError):
+        largest_fit(lambda s: None, 1.0, 10.0, 0.01)
+
+
+def test_raster_pack_gap_from_moved_unions_is_the_gap_of_the_placed_triangles():
+    # the packer measures the padding on each island's union moved with it; it must be the placed triangles' gap
+    uvs, fs = l_shaped_islands(5, seed=3)
+    r = raster_pack(uvs, fs, padding=4, resolution=256, grid=128, angles=4)
+    assert r.padding_texels == pytest.approx(min_gap(r.uvs, fs, r.pages) * 256, abs=1e-9)
+    assert r.padding_texels >= 4
 
 
 @pytest.mark.slow

@@ -24,6 +24,11 @@ PACKERS = ("tight", "shelf", "xatlas")
 #: Later trials repeat the first setting with the placement order perturbed (:data:`ORDER_JITTER`).
 RASTER_TRIALS = ((512, 4), (256, 8))
 
+#: The fill (share of the page) :func:`raster_pack`'s scale search starts from (then gallops and bisects,
+#: :func:`~neuraluv.layout.pack.raster.largest_fit`): real islands fill 50-70% of the page, so the search
+#: brackets the answer in a step or two instead of bisecting from a quarter of the page.
+START_FILL = 0.6
+
 #: Spread (log-normal sigma) of the factors on the islands' areas that perturb the placement order of
 #: :func:`tight_pack`'s later trials: greedy placement is chaotic, and with few large islands the
 #: best of several orders packs several points fuller than largest-first alone.
@@ -52,7 +57,7 @@ _WHERE = {"PackResult": "result", "shelf_pack": "shelf", "raster_pack": "raster"
 
 __all__ = ["PACKERS", "PackResult", "shelf_pack", "raster_pack", "tight_pack", "xatlas_pack", "xatlas_shape_pack",
            "granular_islands", "SPLIT_SHARE", "SPLIT_GAIN", "PACK_TRIALS", "RASTER_TRIALS", "ORDER_JITTER",
-           "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS"]
+           "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS", "START_FILL"]
 
 
 def __getattr__(name):

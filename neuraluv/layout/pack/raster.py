@@ -2,32 +2,108 @@
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
 from neuraluv.layout.overlap import outline_rings, triangles_union
+from neuraluv.layout.pack import START_FILL
 from neuraluv.layout.pack.result import PackResult, min_gap, uv_area
 from neuraluv.layout.raster import Page, dilate, rasterise
 
-__all__ = ["raster_pack", "island_outlines"]
+__all__ = ["raster_pack", "island_outlines", "largest_fit"]
 
 
-def island_outlines(uvs, faces):
-    """Each island's outline rings (holes left out, so they count as filled), computed once per packing.
+def largest_fit(attempt, start, hi, tolerance, *, down=True):
+    """The packing at the largest scale up to ``hi`` that ``attempt`` fits, to a relative ``tolerance``.
+
+    Gallops from ``start`` (steps of 4, 8, 16 … times the tolerance) up until a scale
+    does not fit, or down (with ``down``) until one does, then bisects the bracket.
+    Greedy placement is not monotone in the scale, so this finds *a* largest fitting
+    scale of the bracket, as a bisection does, in fewer placements when ``start`` is
+    close to the answer.
+
+    Parameters
+    ----------
+    attempt : callable
+        ``attempt(scale)`` -> the packing's data with the scale first, or None when it does not fit.
+    start, hi : float
+    tolerance : float
+    down : bool
+        Search below ``start`` when it does not fit (False: return None).
 
     Returns
     -------
-    list of list of ``(exterior (k,2), [])``, one list per island (as :func:`rasterise` takes them)
+    ``attempt``'s data at the largest fitting scale found, or None
+
+    Raises
+    ------
+    ValueError
+        When nothing fits down to ``hi / 1000``.
+
+    Examples
+    --------
+    >>> s = largest_fit(lambda s: (s,) if s <= 3.0 else None, 1.0, 10.0, 0.01)[0]
+    >>> bool(3.0 / 1.01 <= s <= 3.0)
+    True
+    """
+    step = 4 * tolerance
+    found = attempt(start)
+    if found is None:
+        if not down:
+            return None
+        top = lo = start
+        while found is None:
+            top, lo = lo, lo / (1 + step)
+            step *= 2
+            if lo < hi * 1e-3:
+                raise ValueError("raster_pack could not fit the islands on one page")
+            found = attempt(lo)
+    else:
+        lo, top = start, hi
+        while lo * (1 + step) < hi:
+            trial = attempt(lo * (1 + step))
+            if trial is None:
+                top = lo * (1 + step)
+                break
+            lo, found = lo * (1 + step), trial
+            step *= 2
+    while top / lo > 1 + tolerance:
+        mid = np.sqrt(lo * top)
+        trial = attempt(mid)
+        if trial is not None:
+            lo, found = mid, trial
+        else:
+            top = mid
+    return found
+
+
+def island_outlines(uvs, faces):
+    """Each island's union polygon and outline rings, computed once per packing.
+
+    A packing moves every island by a similarity (turn, scale, shift), so the
+    islands' placed polygons are these unions moved the same way: the exact gap
+    check needs no union of the placed triangles.
+
+    Returns
+    -------
+    rings : list of list of ``(exterior (k,2), [])``
+        One list per island, holes left out so they count as filled (as :func:`rasterise` takes them).
+    unions : list of shapely geometries
+        :func:`~neuraluv.layout.overlap.triangles_union` of each island.
 
     Examples
     --------
     >>> sq = np.array([[0., 0], [1, 0], [1, 1], [0, 1]]); q = np.array([[0, 1, 2], [0, 2, 3]])
-    >>> [len(r) for r in island_outlines([sq], [q])]
-    [1]
+    >>> rings, unions = island_outlines([sq], [q])
+    >>> [len(r) for r in rings], unions[0].area
+    ([1], 1.0)
     """
-    out = []
+    rings, unions = [], []
     for u, f in zip(uvs, faces):
-        rings = outline_rings(triangles_union(u, f)[0])
-        out.append(rings or [(np.asarray(u, float)[np.asarray(f)].reshape(-1, 2), [])])
-    return out
+        union = triangles_union(u, f)[0]
+        r = outline_rings(union)
+        rings.append(r or [(np.asarray(u, float)[np.asarray(f)].reshape(-1, 2), [])])
+        unions.append(union)
+    return rings, unions
 
 
 def _place(masks, grid, dil, border, rule, pages_max):
@@ -93,7 +169,8 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
     (:class:`~neuraluv.layout.raster.Page`), trying ``angles`` rotations of it (proper
     rotations only). Two placement rules are tried — the first free spot in reading
     order (bottom-left fill) and the spot that keeps the layout's box smallest — and
-    the common scale is searched by bisection for each; the fuller layout is kept,
+    the common scale is searched for each (:func:`largest_fit`: from a typical fill,
+    :data:`~neuraluv.layout.pack.START_FILL`, or from ``floor``, galloping, then bisecting); the fuller layout is kept,
     then grown to the padding line. The gaps are measured exactly on the float64 UVs;
     when rasterisation left one short of ``padding``, the dilation grows by a cell
     and the packing is redone.
@@ -123,7 +200,7 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
         Only search scales (``PackResult.raster_scale``) from this one up: a packing that
         does not fit there raises ``ValueError`` after one placement per rule, so a trial
         that cannot beat an earlier one costs little.
-    outlines : list, optional
+    outlines : tuple, optional
         :func:`island_outlines` of the islands, when the caller packs them several times.
 
     Returns
@@ -158,7 +235,7 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
     order = np.argsort(-area * (1.0 if weights is None else np.asarray(weights, float)), kind="stable")
     n_ang = max(int(angles), 1)
     turns = [np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]) for a in 2 * np.pi * np.arange(n_ang) / n_ang]
-    rings = island_outlines(uvs, faces) if outlines is None else outlines
+    rings, unions = island_outlines(uvs, faces) if outlines is None else outlines
 
     def attempt(cells, rule, dil, pages_max):
         masks, origin = [], []
@@ -170,12 +247,16 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
         return None if where is None else (cells, rule, where, origin)
 
     def layout(found):
+        """The placed islands' UVs, pages and union polygons (each island's union moved as its UVs are)."""
         cells, _, where, origin = found
-        packed, pages = [None] * len(uvs), np.zeros(len(uvs), np.int64)
+        packed, pages, polys = [None] * len(uvs), np.zeros(len(uvs), np.int64), [None] * len(uvs)
         for (page, k, y, x), i, org in zip(where, order, origin):
-            packed[i] = ((uvs[i] @ turns[k]) * cells - org[k] + [x, y]) * (cell / resolution)
+            def move(c, R=turns[k], shift=[x, y] - org[k]):
+                return ((c @ R) * cells + shift) * (cell / resolution)
+            packed[i] = move(uvs[i])
+            polys[i] = shapely.transform(unions[i], move)
             pages[i] = page
-        return packed, pages
+        return packed, pages, polys
 
     dil = int(np.ceil(padding / cell)) + 1
     for _ in range(3):
@@ -190,37 +271,22 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
                 raise ValueError("raster_pack could not place an island at this texel density")
             tries = [found]
         else:
-            hi = grid / np.sqrt(max(area.sum(), 1e-300))
+            hi = grid / np.sqrt(max(area.sum(), 1e-300))  # every cell covered: no packing is denser
             tries = []
             for rule in ("corner", "box"):
                 if floor is not None:  # only a packing at least this dense is wanted
-                    lo = float(floor) * resolution / cell
-                    found = attempt(lo, rule, dil, 1)
-                    if found is None:
-                        continue
-                else:
-                    lo = hi / 2 if not tries else tries[-1][0]  # the second rule starts where the first ended
-                    found = attempt(lo, rule, dil, 1)
-                while found is None:
-                    lo /= 1.5
-                    if lo < hi * 1e-3:
-                        raise ValueError("raster_pack could not fit the islands on one page")
-                    found = attempt(lo, rule, dil, 1)
-                top = hi
-                while top / lo > 1 + tolerance:
-                    mid = np.sqrt(lo * top)
-                    trial = attempt(mid, rule, dil, 1)
-                    if trial is not None:
-                        lo, found = mid, trial
-                    else:
-                        top = mid
-                tries.append(found)
+                    start, down = float(floor) * resolution / cell, False
+                else:  # a typical fill, then the scale the first rule reached
+                    start, down = (hi * np.sqrt(START_FILL) if not tries else tries[-1][0]), True
+                found = largest_fit(lambda c, r=rule: attempt(c, r, dil, 1), start, hi, tolerance, down=down)
+                if found is not None:
+                    tries.append(found)
             if not tries:
                 raise ValueError("raster_pack: the islands do not fit at the floor scale")
         best = None
         for found in tries:
-            packed, pages = layout(found)
-            gap = min_gap(packed, faces, pages)
+            packed, pages, polys = layout(found)
+            gap = min_gap(packed, faces, pages, polys=polys)
             if gap * resolution < padding * (1 - 1e-6):
                 continue
             if texel_density is None:  # grow up to the padding line (gaps only widen)
@@ -229,7 +295,8 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
                 edge = (padding + 0.01) / resolution  # a hundredth of a texel kept for the float32 write
                 grow = float(np.min((1 - 2 * edge) / np.maximum(hi_c - lo_c, 1e-300)))
                 packed = [(u - lo_c) * grow + edge for u in packed]
-                gap = min_gap(packed, faces, pages)
+                polys = [shapely.transform(p, lambda c: (c - lo_c) * grow + edge) for p in polys]
+                gap = min_gap(packed, faces, pages, polys=polys)
                 scale = found[0] * cell / resolution * grow
             else:
                 scale = float(texel_density) / resolution

@@ -61,7 +61,7 @@ def uv_area(uv, F):
     return 0.0 if F is None else float(np.abs(signed_areas_2d(np.asarray(uv, float), F)).sum())
 
 
-def min_gap(uvs, faces, pages=None, within=0.05):
+def min_gap(uvs, faces, pages=None, within=0.05, *, polys=None):
     """Smallest distance between two islands on the same page, and from an island to the page border.
 
     Parameters
@@ -71,6 +71,8 @@ def min_gap(uvs, faces, pages=None, within=0.05):
     pages : (c,) int array, optional
     within : float
         Island pairs farther apart than this are not measured.
+    polys : list of shapely geometries, optional
+        The islands' :func:`~neuraluv.layout.overlap.triangles_union`, when the caller has them.
 
     Returns
     -------
@@ -82,7 +84,8 @@ def min_gap(uvs, faces, pages=None, within=0.05):
     >>> round(min_gap([a, a + [.24, 0]], [t, t]), 12)   # 0.04 apart, 0.1 from the border
     0.04
     """
-    polys = [triangles_union(u, f)[0] for u, f in zip(uvs, faces)]
+    if polys is None:
+        polys = [triangles_union(u, f)[0] for u, f in zip(uvs, faces)]
     gap = min(min(float(u.min()), float(1 - u.max())) for u in uvs) if uvs else float("inf")
     _, _, d = gaps(polys, within, pages)
     return min(gap, float(d.min())) if len(d) else gap

@@ -4,11 +4,17 @@ from __future__ import annotations
 import numpy as np
 
 from neuraluv.layout import facts
-from neuraluv.layout.pack import (ORDER_JITTER, ORDER_MAX_ISLANDS, PACK_TRIALS, RASTER_MAX_ISLANDS, RASTER_TRIALS,
-                                  SPLIT_GAIN)
+from neuraluv.layout.pack import (
+    ORDER_JITTER,
+    ORDER_MAX_ISLANDS,
+    PACK_TRIALS,
+    RASTER_MAX_ISLANDS,
+    RASTER_TRIALS,
+    SPLIT_GAIN,
+)
 from neuraluv.layout.pack.cuts import granular_islands
 from neuraluv.layout.pack.raster import island_outlines, raster_pack
-from neuraluv.layout.pack.result import fullest
+from neuraluv.layout.pack.result import uv_area
 from neuraluv.layout.pack.xatlas_packer import xatlas_shape_pack
 from neuraluv.layout.rigid import rotate_to_min_box
 from neuraluv.topology import submesh
@@ -21,9 +27,9 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
 
     The fullest of ``trials`` packings is kept: :func:`~neuraluv.layout.pack.raster.raster_pack`
     with the settings of :data:`RASTER_TRIALS`, then with the first setting and the placement
-    order perturbed (seeded, :data:`ORDER_JITTER`; up to :data:`ORDER_MAX_ISLANDS` islands;
-    each such trial is first placed at the best scale so far and costs one placement per
-    rule when it cannot beat it), up to :data:`RASTER_MAX_ISLANDS` islands; or xatlas's
+    order perturbed (seeded, :data:`ORDER_JITTER`; up to :data:`ORDER_MAX_ISLANDS` islands);
+    every trial after the first searches up from the best scale so far and costs one
+    placement per rule when it cannot reach it; up to :data:`RASTER_MAX_ISLANDS` islands; or xatlas's
     shape placement with (at most two) quarter-turn trials
     (:func:`~neuraluv.layout.pack.xatlas_packer.xatlas_shape_pack`) for more islands or with
     ``method="xatlas"``.
@@ -32,7 +38,8 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
     island holds more than that share of the total UV area the islands are also packed cut
     by :func:`~neuraluv.layout.pack.cuts.granular_islands` (a few large islands leave gaps no
     placement can fill), and that packing is kept when it is fuller by at least
-    :data:`SPLIT_GAIN` on no more pages; its ``pieces`` then say which part of which island
+    :data:`SPLIT_GAIN` on no more pages (its trials search only from the whole packing's
+    fill up: a cut packing that cannot reach it is dropped after one placement per rule); its ``pieces`` then say which part of which island
     each packed island is.
 
     Parameters
@@ -83,16 +90,23 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
                 d = facts.island_densities([np.asarray(xyz[i], float)[vi] for i, _, vi, _ in parts],
                                            [f for *_, f in parts], puvs)
                 puvs = [u / di if np.isfinite(di) and di > 0 else u for u, di in zip(puvs, d)]
-            cut = _best_of_trials([rotate_to_min_box(u) for u in puvs] if rotate else puvs,
-                                  [f for *_, f in parts], **kw)
-            if cut.n_pages <= whole.n_pages and cut.utilisation >= whole.utilisation + SPLIT_GAIN:
+            pfaces = [f for *_, f in parts]
+            # the cut packing must reach at least the whole packing's fill before growing to the padding line
+            low = None
+            if texel_density is None:
+                low = whole.raster_scale * np.sqrt(sum(map(uv_area, uvs, faces)) / sum(map(uv_area, puvs, pfaces)))
+            cut = _best_of_trials([rotate_to_min_box(u) for u in puvs] if rotate else puvs, pfaces, floor=low, **kw)
+            if cut is not None and cut.n_pages <= whole.n_pages and cut.utilisation >= whole.utilisation + SPLIT_GAIN:
                 cut.pieces = [(i, idx, vi) for i, idx, vi, _ in parts]
                 whole = cut
     whole.packer = "tight"
     return whole
 
 
-def _best_of_trials(uvs, faces, *, padding, resolution, texel_density, trials, rotate, method):
+def _best_of_trials(uvs, faces, *, padding, resolution, texel_density, trials, rotate, method, floor=None):
+    """The fullest of the trials; with ``floor`` (a raster scale) only packings at least that dense count, and
+    None is returned when none is. Every trial after the first is searched from the best scale so far up
+    (``raster_pack(floor=...)``): one that cannot beat it costs one placement per rule."""
     trials = max(int(trials), 1)
     if method == "xatlas" or (method == "auto" and len(uvs) > RASTER_MAX_ISLANDS):  # perturbed orders: raster only
         n = min(trials, len(RASTER_TRIALS)) if rotate else 1
@@ -102,22 +116,26 @@ def _best_of_trials(uvs, faces, *, padding, resolution, texel_density, trials, r
         return best
     outlines = island_outlines(uvs, faces)  # once for every trial
     kw = dict(padding=padding, resolution=resolution, texel_density=texel_density, outlines=outlines)
-    best = fullest(lambda g=grid, a=angles: raster_pack(uvs, faces, grid=g, angles=a if rotate else 1, **kw)
-                   for grid, angles in RASTER_TRIALS[:trials])
-    best.trials = min(trials, len(RASTER_TRIALS))
-    if texel_density is not None or not 2 <= len(uvs) <= ORDER_MAX_ISLANDS:  # a fixed scale (pages), or
-        return best                                                             # nothing or too much to reorder
-    grid, angles = RASTER_TRIALS[0]
-    n = best.trials
-    for k in range(len(RASTER_TRIALS), trials):
-        w = np.exp(np.random.default_rng(k).normal(0.0, ORDER_JITTER, len(uvs)))
+    fixed = texel_density is not None  # pages at a fixed scale: every setting is packed in full
+    best, err, n = None, None, 0
+    settings = list(RASTER_TRIALS[:trials])
+    if not fixed and 2 <= len(uvs) <= ORDER_MAX_ISLANDS:  # then the first setting with perturbed orders
+        settings += [RASTER_TRIALS[0]] * (trials - len(settings))
+    for k, (grid, angles) in enumerate(settings):
+        w = None if k < len(RASTER_TRIALS) else np.exp(np.random.default_rng(k).normal(0.0, ORDER_JITTER, len(uvs)))
+        low = floor if best is None else best.raster_scale
         n += 1
         try:
-            r = raster_pack(uvs, faces, grid=grid, angles=angles if rotate else 1, weights=w, floor=best.raster_scale,
-                            **kw)
-        except ValueError:  # not even as dense as the best: a cheap miss
+            r = raster_pack(uvs, faces, grid=grid, angles=angles if rotate else 1, weights=w,
+                            floor=None if fixed else low, **kw)
+        except ValueError as exc:  # not as dense as the best (a cheap miss), or nothing fits
+            err = exc
             continue
-        if r.utilisation > best.utilisation:
+        if best is None or (-r.n_pages, r.utilisation) > (-best.n_pages, best.utilisation):
             best = r
+    if best is None:
+        if floor is not None:
+            return None
+        raise err
     best.trials = n
     return best
