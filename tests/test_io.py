@@ -45,3 +45,40 @@ def test_load_mesh_errors(tmp_path):
     (tmp_path / "e.ply").write_bytes(b"")
     with pytest.raises(MeshLoadError, match="empty"):
         load_mesh(tmp_path / "e.ply")
+
+
+QUAD = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+
+
+def test_obj_byte_order_mark_and_line_continuation_read_as_the_plain_file(tmp_path):
+    plain, odd = tmp_path / "plain.obj", tmp_path / "odd.obj"
+    plain.write_text(QUAD + "f 1/1 2/2 3/3 4/4\n", encoding="utf-8")
+    # a byte-order mark before the first vertex, and the face continued over two lines (CRLF endings)
+    odd.write_bytes(("\ufeff" + QUAD + "f 1/1 2/2 \\\n  3/3 4/4\n").replace("\n", "\r\n").encode("utf-8"))
+    a, b = read_obj(plain), read_obj(odd)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    assert b.notes["lines"] == 10
+    with pytest.raises(MeshLoadError, match="line 9"):  # errors name the continued line's first line
+        (tmp_path / "bad.obj").write_text(QUAD + "f 1/1 2/2 \\\n 3/3 9/9\n", encoding="utf-8")
+        read_obj(tmp_path / "bad.obj")
+    (tmp_path / "end.obj").write_text(QUAD + "f 1/1 2/2 3/3 \\\n", encoding="utf-8")
+    with pytest.raises(MeshLoadError, match="ends inside a continued line"):
+        read_obj(tmp_path / "end.obj")
+
+
+def test_patch_obj_keeps_the_byte_order_mark_and_rewrites_a_continued_face_whole(tmp_path):
+    from neuraluv.io import patch_obj
+    src, dst = tmp_path / "src.obj", tmp_path / "dst.obj"
+    src.write_bytes(("\ufeffvt 0.5 0.5\n" + QUAD + "f 1/2 2/3 \\\n 3/4 4/5\n").encode("utf-8"))
+    V, F, UV, FUV = read_obj(src)
+    UV2 = UV.copy()
+    UV2[0] = [0.25, 0.25]  # the first line's vt changes: the mark stays
+    FUV2 = FUV.copy()
+    FUV2[0, 1] = 0  # the continued face changes: its two lines become one
+    patch_obj(src, dst, UV2, FUV2)
+    out = dst.read_bytes().decode("utf-8")
+    assert out.startswith("\ufeffvt 0.25 0.25\n") and "\\" not in out
+    V3, F3, UV3, FUV3 = read_obj(dst)
+    np.testing.assert_array_equal(F3, F)
+    np.testing.assert_array_equal(UV3[FUV3], UV2[FUV2])

@@ -92,7 +92,9 @@ def read_obj(path, *, strict=True, keep_lines=False):
 
     Notes
     -----
-    Whitespace may be spaces or tabs, and anything after ``#`` is a comment.
+    Whitespace may be spaces or tabs, and anything after ``#`` is a comment. A
+    line ending in a backslash continues on the next one; a UTF-8 byte-order mark
+    before the first line is skipped (both are kept in ``notes["raw"]``).
     Negative indices count back from the last element defined so far.
 
     Examples
@@ -113,7 +115,7 @@ def read_obj(path, *, strict=True, keep_lines=False):
     V, UV, F, FUV = [], [], [], []
     vt_line, face_line, face_fan, raw_lines = [], [], [], []
     any_vt = False
-    polygons = n = 0
+    polygons = count = 0
     name = path.name
 
     def fail(n, msg):
@@ -139,12 +141,26 @@ def read_obj(path, *, strict=True, keep_lines=False):
         fh = open(path, encoding="utf-8", newline="")  # line endings kept as they are (patch_obj)
     except OSError as exc:
         raise MeshLoadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    joined = {}  # first physical line -> (the logical line it starts, its last physical line) when continued
     with fh:
         try:
-            for n, raw in enumerate(fh, start=1):
+            pending, start = "", 0
+            for count, raw in enumerate(fh, start=1):
                 if keep_lines:
                     raw_lines.append(raw)
-                line = raw.split("#", 1)[0].split()
+                if count == 1 and raw.startswith("\ufeff"):  # a UTF-8 byte-order mark is not part of the first line
+                    raw = raw[1:]
+                body = raw.split("#", 1)[0].rstrip()
+                if body.endswith("\\"):  # the line continues on the next one (OBJ's line continuation)
+                    if not pending:
+                        start = count
+                    pending += body[:-1] + " "
+                    continue
+                n = count  # errors and line indices name a logical line's first physical line
+                if pending:
+                    body, pending, n = pending + body, "", start
+                    joined[start - 1] = (body, count - 1)
+                line = body.split()
                 if not line:
                     continue
                 key = line[0]
@@ -189,16 +205,19 @@ def read_obj(path, *, strict=True, keep_lines=False):
                             FUV.append([ti[0], ti[k], ti[k + 1]] if len(ti) == len(vi) else [-1, -1, -1])
                             face_line.append(n - 1)
                             face_fan.append(k - 1)
+            if pending:
+                fail(start, "the file ends inside a continued line (a backslash at the end of the last line)")
         except UnicodeDecodeError:
             raise MeshLoadError(f"{name}: not a text OBJ file (bytes that are not UTF-8)") from None
+    n_read = count
     V = np.asarray(V, float).reshape(-1, 3)
     F = np.asarray(F, np.int64).reshape(-1, 3)
     UV = np.asarray(UV, float).reshape(-1, 2)
     FUV = np.asarray(FUV, np.int64).reshape(-1, 3) if (any_vt and len(F)) else None
     out = ObjData((V, F, UV, FUV))
-    out.notes = {"polygons": int(polygons), "lines": n}
+    out.notes = {"polygons": int(polygons), "lines": n_read}
     if keep_lines:
-        out.notes.update(raw=raw_lines, vt_line=np.asarray(vt_line, np.int64),
+        out.notes.update(raw=raw_lines, joined=joined, vt_line=np.asarray(vt_line, np.int64),
                          face_line=np.asarray(face_line, np.int64), face_fan=np.asarray(face_fan, np.int64))
     return out
 
@@ -255,6 +274,10 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     V0, F0, UV0, FUV0 = data
     notes = data.notes
     raw = list(notes["raw"])
+    joined = notes.get("joined", {})
+
+    def text(L):  # a logical line's text (continued lines joined)
+        return joined[L][0] if L in joined else raw[L]
     UV = np.asarray(UV, float)
     FUV = np.asarray(FUV, np.int64)
     if not np.isfinite(UV).all():
@@ -268,7 +291,8 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     new_line = {}
     for r in np.flatnonzero(~same):
         L = int(notes["vt_line"][r])
-        new_line[L] = f"vt {float(UV[r, 0])!r} {float(UV[r, 1])!r}" + _ending(raw[L])
+        bom = "\ufeff" if L == 0 and raw[0].startswith("\ufeff") else ""
+        new_line[L] = f"{bom}vt {float(UV[r, 0])!r} {float(UV[r, 1])!r}" + _ending(raw[joined[L][1]] if L in joined else raw[L])
     face_changed = (FUV != FUV0).any(1)
     if len(notes["vt_line"]):
         insert_at = int(notes["vt_line"][-1]) + 1
@@ -280,7 +304,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     lines_to_rewrite = set(notes["face_line"][face_changed].tolist())
     if added:
         for L in np.unique(notes["face_line"][notes["face_line"] >= insert_at]):
-            toks = raw[L].split("#", 1)[0].split()[1:]
+            toks = text(L).split("#", 1)[0].split()[1:]
             if any(len(t.split("/")) > 1 and t.split("/")[1].startswith("-") for t in toks):
                 lines_to_rewrite.add(int(L))
     order = np.argsort(notes["face_line"], kind="stable")
@@ -288,7 +312,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     for L in sorted(lines_to_rewrite):
         tri = order[np.searchsorted(fl_sorted, L, "left"):np.searchsorted(fl_sorted, L, "right")]
         tri = tri[np.argsort(notes["face_fan"][tri])]
-        body, _, comment = raw[L].rstrip("\r\n").partition("#")
+        body, _, comment = text(L).lstrip("\ufeff").rstrip("\r\n").partition("#")
         toks = body.split()[1:]
         nc = len(toks)
         vt = [None] * nc
@@ -310,13 +334,16 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
             parts[1] = str(row + 1)
             return "/".join(parts)
 
-        end = _ending(raw[L])
+        end = _ending(raw[joined[L][1]] if L in joined else raw[L])
         tail = (" #" + comment) if comment else ""
         if consistent and None not in vt:
             new_line[L] = "f " + " ".join(corner_token(tok, r) for tok, r in zip(toks, vt)) + tail + end
         else:
             new_line[L] = "".join("f " + " ".join(corner_token(toks[c], int(FUV[t, j])) for j, c in
                                                   enumerate((0, k + 1, k + 2))) + end for k, t in enumerate(tri))
+    for L in [L for L in new_line if L in joined]:  # a rewritten continued line replaces all its lines
+        for k in range(L + 1, joined[L][1] + 1):
+            new_line[k] = ""
     ins_end = _ending(raw[insert_at - 1]) if insert_at > 0 else "\n"
     extra = [f"vt {u!r} {v!r}{ins_end}" for u, v in UV[p0:].tolist()]
     with atomic_write(dst, "wb") as fh:  # bytes: line endings exactly as chosen above, on every platform
