@@ -336,3 +336,9 @@ def test_cuda_solve_matches_cpu():
     cpu = solve_chart(V, F, cfg, device="cpu")
     assert gpu.status == "neural" and gpu.metrics["flips"] == 0
     assert gpu.metrics["esd"] == pytest.approx(cpu.metrics["esd"], rel=0.05)
+
+
+def test_preset_help_states_the_fast_preset_as_configured():
+    from neuraluv.solver.config import PRESET_HELP, PRESETS
+    c = PRESETS["fast"]
+    assert f"{c.n_layers}x{c.width} SIREN (omega0 {c.omega0:g})" in PRESET_HELP["fast"]

@@ -134,7 +134,8 @@ PRESETS = {
 PRESET_HELP = {
     "paper": "the published network and budget (5x256 SIREN, 5,000 Adam iterations) with the stated deviations",
     "literal": "the paper's text only (Adam defaults, rejection on flips alone, plain Tutte start)",
-    "fast": "the default: the paper's recipe with a 4x64 SIREN (omega0 45) and L-BFGS, <= 2,000 validated steps",
+    "fast": (f"the default: the paper's recipe with a {PRESETS['fast'].n_layers}x{PRESETS['fast'].width} SIREN "
+             f"(omega0 {PRESETS['fast'].omega0:g}) and L-BFGS, <= {PRESETS['fast'].iterations:,} validated steps"),
     "test": "a tiny network for unit tests and doctests (not for real use)",
 }
 
