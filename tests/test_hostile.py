@@ -123,6 +123,7 @@ def test_fifo_input_is_refused(tmp_path, capfd):
     (["--threads", "-1"], ">= 1"), (["--threads", "0"], ">= 1"), (["--seed", "99999999999999999999"], "seed"),
     (["--seed", "-3"], "seed"), (["--device", "bogus"], "unknown device"), (["--time-budget", "inf"], "finite"),
     (["--iterations", "0"], ">= 1"), (["--preset", "nope"], "invalid choice"),
+    (["--texel-density", "1e-9"], "less than one"),  # an atlas of points, refused before any solve
 ])
 def test_bad_flags_are_one_line_errors(tmp_path, chart, capfd, flags, word):
     code, _, err = _run(["atlas", chart, "-o", tmp_path / "o.obj", *ATLAS_FAST, *flags], capfd)

@@ -139,8 +139,10 @@ def test_tight_pack_fixed_density_spills_to_pages():
     uvs, fs = l_shaped_islands(20)
     one = tight_pack(uvs, fs, padding=2, resolution=128)
     dense = tight_pack(uvs, fs, padding=2, resolution=128, texel_density=2 * one.scale * 128)
-    with pytest.raises(ValueError, match="texels"):
+    with pytest.raises(ValueError, match="more than a 128-texel tile"):
         tight_pack(uvs, fs, padding=2, resolution=128, texel_density=50 * one.scale * 128)
+    with pytest.raises(ValueError, match="less than one texel"):  # not an atlas of points
+        tight_pack(uvs, fs, padding=2, resolution=128, texel_density=1e-9)
     assert one.pages.max() == 0 and dense.pages.max() >= 1
     for p in range(int(dense.pages.max()) + 1):
         on = [u for u, g in zip(dense.uvs, dense.pages) if g == p]

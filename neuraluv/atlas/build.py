@@ -198,6 +198,11 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
     V, F = check_mesh_arrays(V, F)
     Vin = V
     Vn, _, unit = normalize_unit_box(V)  # once: every step below works on the unit-box mesh
+    if texel_density is not None:  # no island is longer than the mesh's diagonal: refuse a hopeless density now
+        span = float(np.linalg.norm(V.max(0) - V.min(0))) * float(texel_density)
+        if not span >= 1.0:
+            raise NeuralUVError(f"at texel density {texel_density:g} the whole mesh spans {span:.2g} texels, less "
+                                f"than one: raise the density (texels per unit length of the input)")
     Vr, Fr, vmap, rinfo = prepare_mesh(Vn, F, min_height=min_height)
     if len(Fr) == 0:
         raise NeuralUVError("no usable faces: every face is degenerate (zero area or repeated corners)")

@@ -266,6 +266,9 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
             if big > resolution - 2 * padding:
                 raise ValueError(f"an island spans {big:.0f} texels at this texel density, more than a "
                                  f"{resolution}-texel tile holds: lower the density or raise the resolution")
+            if big < 1.0:
+                raise ValueError(f"the largest island spans {big:.2g} texels at this texel density, less than one "
+                                 f"texel (every island would collapse to a point of the texture): raise the density")
             found = attempt(cells, "corner", dil, len(uvs))
             if found is None:
                 raise ValueError("raster_pack could not place an island at this texel density")
