@@ -82,3 +82,23 @@ def test_patch_obj_keeps_the_byte_order_mark_and_rewrites_a_continued_face_whole
     V3, F3, UV3, FUV3 = read_obj(dst)
     np.testing.assert_array_equal(F3, F)
     np.testing.assert_array_equal(UV3[FUV3], UV2[FUV2])
+
+
+def test_atomic_write_removes_what_a_killed_write_left(tmp_path):
+    import subprocess
+    import sys
+
+    from neuraluv.io import atomic_write
+    out = tmp_path / "mesh.obj"
+    # a writer killed mid-write (SIGKILL: no handler runs) leaves its temporary file
+    code = ("import os, signal, sys; from neuraluv.io import atomic_write\n"
+            "with atomic_write(sys.argv[1]) as fh:\n    fh.write('half'); fh.flush(); os.kill(os.getpid(), signal.SIGKILL)")
+    subprocess.run([sys.executable, "-c", code, str(out)])
+    left = list(tmp_path.glob(".mesh.obj.*.tmp"))
+    assert len(left) == 1 and not out.exists()
+    other = tmp_path / ".mesh.obj.notapid.x.tmp"  # not one of ours: kept
+    other.write_text("keep")
+    with atomic_write(out) as fh:
+        fh.write("whole")
+    assert out.read_text() == "whole"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["mesh.obj", other.name])

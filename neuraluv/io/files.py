@@ -6,6 +6,7 @@ interrupted run never leaves a half-written output behind.
 from __future__ import annotations
 
 import csv
+import glob
 import json
 import math
 import os
@@ -18,9 +19,34 @@ import numpy as np
 __all__ = ["atomic_write", "jsonable", "write_json", "write_csv"]
 
 
+def _pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):  # someone else's process, or not a pid
+        return pid > 0
+    return True
+
+
+def _remove_stale_temporaries(path):
+    """Delete the temporary files an earlier, killed write to ``path`` left (their writer is gone)."""
+    for tmp in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
+        pid = tmp.name[len(path.name) + 2:].split(".", 1)[0]
+        if pid.isdigit() and not _pid_alive(int(pid)):
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+
+
 @contextmanager
 def atomic_write(path, mode="w"):
     """Open a temporary file that replaces ``path`` only if the block succeeds.
+
+    The temporary file (``.NAME.PID.XXXX.tmp`` beside ``path``) is deleted when the
+    block fails; one left by a killed process (no handler runs then) is deleted by
+    the next write to the same path once its process is gone.
 
     Examples
     --------
@@ -33,7 +59,8 @@ def atomic_write(path, mode="w"):
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    _remove_stale_temporaries(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp")
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh
