@@ -342,3 +342,24 @@ def test_preset_help_states_the_fast_preset_as_configured():
     from neuraluv.solver.config import PRESET_HELP, PRESETS
     c = PRESETS["fast"]
     assert f"{c.n_layers}x{c.width} SIREN (omega0 {c.omega0:g})" in PRESET_HELP["fast"]
+
+
+def test_auto_threads_leave_busy_cpus_alone_and_the_cli_takes_auto_or_a_count(monkeypatch):
+    import argparse
+    import os
+
+    from neuraluv.cli.options import threads_arg
+    from neuraluv.solver import device
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2, 3})
+    monkeypatch.setattr(os, "getloadavg", lambda: (2.6, 0.0, 0.0))
+    assert device.auto_threads()[0] == 1  # 4 CPUs, 2.6 busy: one free (the running count can only add)
+    monkeypatch.setattr(os, "getloadavg", lambda: (9.0, 0.0, 0.0))
+    assert device.auto_threads()[0] == 1  # never fewer than one
+    import torch
+    before = torch.get_num_threads()
+    with device.torch_threads("auto"):
+        assert torch.get_num_threads() == 1
+    assert torch.get_num_threads() == before
+    assert threads_arg("auto") == "auto" and threads_arg("3") == 3
+    with pytest.raises(argparse.ArgumentTypeError):
+        threads_arg("0")

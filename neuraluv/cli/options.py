@@ -41,6 +41,11 @@ def positive_int(text):
     return v
 
 
+def threads_arg(text):
+    """argparse type: ``auto`` or an integer ≥ 1."""
+    return "auto" if str(text).strip().lower() == "auto" else positive_int(text)
+
+
 def _finite(text):
     try:
         v = float(text)
@@ -86,7 +91,10 @@ def add_solver_options(p, *, default_preset="fast", preset_default_none=False):
     p.add_argument("--seed", type=seed_int, default=0, help="first seed of the solver's retry schedule (default 0)")
     p.add_argument("--device", default="auto",
                    help="auto (CUDA when available, else CPU; default), cpu, cuda or cuda:N; an unavailable device is an error")
-    p.add_argument("--threads", type=positive_int, default=None, help="torch CPU threads (default: torch's own choice)")
+    p.add_argument("--threads", type=threads_arg, default="auto",
+                   help="torch CPU threads, or auto (default: the CPUs nothing else is busy on, at least one: "
+                        "two runs at once on two cores would each slow down x3 with two threads; give a number where runs must "
+                        "repeat bit for bit)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
 
 

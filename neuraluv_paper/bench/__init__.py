@@ -72,6 +72,8 @@ def _dispatch(args):
     from neuraluv.solver.device import resolve_device
 
     resolve_device(args.device)
+    if args.threads == "auto":  # a benchmark runs as it says: torch's own thread count unless one is given
+        args.threads = None
     threads = args.threads or (1 if args.quick else None)
     if threads:
         import torch
