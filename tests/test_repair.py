@@ -225,3 +225,17 @@ def test_patch_obj_keeps_every_other_line(tmp_path):
     assert np.array_equal(F3, F) and np.array_equal(FUV3, FUV2) and np.array_equal(UV3, UV2)
 
 
+
+
+def test_check_text_shows_a_few_of_each_kind_counts_the_rest_and_ends_with_a_summary():
+    from neuraluv.repair.diagnose import UVDiagnosis
+    probs = [dict(kind="island_overlap", islands=[i, i + 1], message=f"islands {i} and {i + 1} overlap",
+                  action="move one") for i in range(40)]
+    probs.append(dict(kind="mirrored_island", island=3, message="mirrored island", action="reflect it"))
+    d = UVDiagnosis(faces=100, islands=[], problems=probs, warnings=[], validation={})
+    text = d.format("x.obj").splitlines()
+    assert sum(ln.startswith("  problem: islands") for ln in text) == 5
+    assert any("35 more problems of this kind (island_overlap" in ln for ln in text)
+    assert any("mirrored island" in ln for ln in text)
+    assert text[-1].startswith("summary: 41 problems (island_overlap 40; mirrored_island 1), 0 warnings")
+    assert sum(ln.startswith("  problem:") for ln in d.format("x.obj", limit=None).splitlines()) == 41

@@ -138,7 +138,7 @@ def cmd_check_uv(args):
     if args.json:
         print(json.dumps(d.as_dict(), indent=2))
     else:
-        print(d.format(inp.name))
+        print(d.format(inp.name, limit=None if args.all else 5))
     return EXIT_OK
 
 
@@ -223,6 +223,7 @@ def register(sub):
                                    "elements, and what `atlas` will do about each.", epilog=EPILOG)
     c.add_argument("input", help="mesh file")
     c.add_argument("--json", action="store_true", help="machine-readable output")
+    c.add_argument("--all", action="store_true", help="with --uv: every problem and warning (default: five of each kind)")
     c.add_argument("--uv", action="store_true",
                    help="diagnose the file's UV layout instead (OBJ with vt, or GLB): flips, mirrored islands, "
                         "overlaps, missing/NaN UVs, bounds, texel density, padding; and what `repair` would do")

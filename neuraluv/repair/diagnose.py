@@ -58,8 +58,16 @@ class UVDiagnosis:
                          "warnings": self.warnings, "islands": self.islands, "validation": self.validation,
                          "resolution": self.resolution, "padding_texels": self.padding, **self.info})
 
-    def format(self, name="layout"):
-        """The report as text: one line per problem, then the warnings."""
+    def format(self, name="layout", limit=5):
+        """The report as text: the problems, then the warnings, then a summary line.
+
+        Parameters
+        ----------
+        name : str
+        limit : int or None
+            Lines per kind of problem or warning; the rest are counted in one line
+            (None: every one).
+        """
         n_isl = len(self.islands)
         dens = [i["texel_density"] for i in self.islands if i["texel_density"] is not None]
         lines = [f"{name}: {self.faces:,} faces, {n_isl} UV islands"
@@ -67,11 +75,28 @@ class UVDiagnosis:
         if self.ok:
             lines.append("  nothing to repair: no flipped, degenerate, mirrored, overlapping, missing or non-finite "
                          "UVs, all inside [0,1]²")
-        for p in self.problems:
-            lines.append(f"  problem: {_describe(p)}\n           → {p['action']}")
-        for w in self.warnings:
-            lines.append(f"  warning: {_describe(w)}\n           → {w['action']}")
+        for label, items in (("problem", self.problems), ("warning", self.warnings)):
+            for kind, group in _by_kind(items).items():
+                shown = group if limit is None else group[:limit]
+                for p in shown:
+                    lines.append(f"  {label}: {_describe(p)}\n           → {p['action']}")
+                if len(group) > len(shown):
+                    lines.append(f"  … and {len(group) - len(shown):,} more {label}s of this kind ({kind}; "
+                                 f"--all or --json lists every one)")
+        counts = "; ".join(f"{k} {len(g):,}" for k, g in _by_kind(self.problems).items())
+        lines.append(f"summary: {len(self.problems):,} problem{'s' * (len(self.problems) != 1)}"
+                     + (f" ({counts})" if counts else "")
+                     + f", {len(self.warnings):,} warning{'s' * (len(self.warnings) != 1)}"
+                     + ("; nothing to repair" if self.ok else "; `neuraluv repair` fixes the problems"))
         return "\n".join(lines)
+
+
+def _by_kind(items):
+    """Items grouped by their ``kind``, in order of first appearance."""
+    out = {}
+    for p in items:
+        out.setdefault(p.get("kind", "other"), []).append(p)
+    return out
 
 
 def _describe(p):
