@@ -243,6 +243,20 @@ def test_time_budget_bounds_the_solve(tmp_path, capfd):
     _valid_output(tmp_path / "o.obj")
 
 
+def test_atlas_says_which_charts_the_time_budget_left_unsolved_and_what_to_do(tmp_path, capfd):
+    V, F = datasets.sphere(3)
+    p = tmp_path / "sphere.obj"
+    write_obj(p, V, F, np.zeros((len(V), 2)))
+    code, out, err = _run(["atlas", p, "-o", tmp_path / "o.obj", *ATLAS_FAST, "--time-budget", "0.001"], capfd)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert any(ln.startswith("fallback faces by reason: time budget exhausted") for ln in lines), out
+    assert any("a larger --time-budget" in ln for ln in lines), out
+    _valid_output(tmp_path / "o.obj")
+    code, out, _ = _run(["atlas", p, "-o", tmp_path / "o2.obj", *ATLAS_FAST], capfd)  # no budget hit: no such lines
+    assert code == 0 and "--time-budget" not in out
+
+
 def _wait_until_busy(proc, cpu_seconds, limit=60.0):
     """Wait until ``proc`` has used ``cpu_seconds`` of CPU (Linux ``/proc``; else that many wall seconds + 1)."""
     stat = f"/proc/{proc.pid}/stat"

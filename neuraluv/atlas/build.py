@@ -5,6 +5,7 @@ The routed-face split is the paper's Table 8 quantity (52.1% neural /
 """
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, replace
 
@@ -71,7 +72,7 @@ class AtlasResult:
         reasons = {}
         for c in charts:
             if c.route == "fallback":
-                key = c.reason.split(":")[0].split("(")[0].strip() or "unspecified"
+                key = fallback_cause(c.reason)
                 reasons[key] = reasons.get(key, 0) + len(c.faces)
         v = self.validation
         return {
@@ -110,6 +111,22 @@ class AtlasResult:
             "validation": self.validation,
             "charts": [c.summary(i) for i, c in enumerate(self.charts)],
         })
+
+
+def fallback_cause(reason):
+    """The cause a fallback chart's reason names, without its details (for counts by cause).
+
+    Examples
+    --------
+    >>> fallback_cause("neural: time budget exhausted before this chart's solve; the valid start (tutte) is returned")
+    "time budget exhausted before this chart's solve"
+    >>> fallback_cause("exact unfold overlaps itself; neural solver error: RuntimeError: boom")
+    'neural solver error'
+    >>> fallback_cause("neural map overlaps itself in UV (3.2% of its area)")
+    'neural map overlaps itself in UV'
+    """
+    last = reason.rsplit("neural: ", 1)[-1] if "neural: " in reason else reason.rsplit("; ", 1)[-1]
+    return re.split(r"[;:(]", last, maxsplit=1)[0].strip() or "unspecified"
 
 
 def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="tight", seed=0, device="auto",

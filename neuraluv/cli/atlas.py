@@ -102,10 +102,24 @@ def cmd_atlas(args):
              if res.info.get("cut_islands") else "")
           + f"; {res.info['time']:.1f}s"
           + (f"; input repaired: {', '.join(fixed)}" if fixed else ""))
+    _print_fallbacks(t, args)
     if not rep["ok"]:
         print("neuraluv: atlas failed validation after reading it back (see the report)", file=sys.stderr)
         return EXIT_INVALID
     return EXIT_OK
+
+
+def _print_fallbacks(totals, args):
+    """One line per reason charts fell back, and what to do when the time budget was the reason."""
+    reasons = totals.get("fallback_faces_by_reason") or {}
+    if not reasons:
+        return
+    print("fallback faces by reason: " + "; ".join(f"{why} {n:,}" for why, n in sorted(reasons.items(),
+                                                                                   key=lambda kv: -kv[1])))
+    if any("budget" in why for why in reasons):
+        print(f"  the --time-budget ({args.time_budget:g} s) ran out before every chart was solved (a busy "
+              f"machine, or a large mesh): those charts have a valid but more distorted map; a larger "
+              f"--time-budget (0: none) solves them all")
 
 
 def _read_layout(inp):
