@@ -21,12 +21,21 @@ A whole, possibly messy, input mesh becomes a packed UV atlas:
 Repairing a supplied layout (rather than making one) is :mod:`neuraluv.repair`; what a
 layout is, and everything both ask of one, is :mod:`neuraluv.layout`.
 """
-from neuraluv.atlas.build import AtlasResult, build_atlas, repack
-from neuraluv.atlas.candidates import chart_candidates, seam_charts
-from neuraluv.atlas.export import atlas_file, read_atlas, save_renders, write_atlas
-from neuraluv.atlas.prepare import prepare_mesh
-from neuraluv.atlas.routing import (FALLBACK_MAX_ESD, AtlasChart, fallback_islands, pca_uv, per_face_uv, route_chart,
-                                    route_charts, tutte_slim_uv, unfold_tree)
+from __future__ import annotations
+
+import importlib
+
+#: name -> module of this package that defines it (imported on first use: ``neuraluv unwrap`` needs
+#: only :mod:`~neuraluv.atlas.unwrap`, not the atlas pipeline's modules and trimesh).
+_WHERE = {
+    "AtlasResult": "build", "build_atlas": "build", "repack": "build",
+    "chart_candidates": "candidates", "seam_charts": "candidates",
+    "atlas_file": "export", "read_atlas": "export", "save_renders": "export", "write_atlas": "export",
+    "prepare_mesh": "prepare",
+    "FALLBACK_MAX_ESD": "routing", "AtlasChart": "routing", "fallback_islands": "routing", "pca_uv": "routing",
+    "per_face_uv": "routing", "route_chart": "routing", "route_charts": "routing", "tutte_slim_uv": "routing",
+    "unfold_tree": "routing",
+}
 
 __all__ = [
     "AtlasChart", "AtlasResult", "prepare_mesh", "seam_charts", "chart_candidates",
@@ -34,3 +43,13 @@ __all__ = [
     "tutte_slim_uv", "FALLBACK_MAX_ESD",
     "write_atlas", "read_atlas", "save_renders", "atlas_file", "repack",
 ]
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"neuraluv.atlas.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'neuraluv.atlas' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))
