@@ -314,6 +314,11 @@ def test_speed_quick_writes_the_table_with_floor_split_and_slim(tmp_path):
     for f in ("speed.csv", "speed.md", "speed.png"):
         assert (tmp_path / f).stat().st_size > 100
     assert "× SLIM-1k" in res.markdown and "Machine:" in (tmp_path / "speed.md").read_text()
+    # every row is logged when it is finished; --resume reuses it instead of timing it again
+    assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 1
+    again = bench(["glove"], ["fast"], quick=True, output=tmp_path, show_progress=False, resume=True)
+    assert again.rows[0]["per_it_ms"] == row["per_it_ms"] and again.rows[0]["esd"] == row["esd"]
+    assert len((tmp_path / "rows.jsonl").read_text().splitlines()) == 1
 
 
 def test_grown_disk_is_a_disk_of_about_the_asked_size():

@@ -50,8 +50,8 @@ from neuraluv.solver.engine import make_batch, optimise
 from neuraluv.solver.siren import flat_grad, forward, init_params, leaves
 from neuraluv.topology import face_components, is_disk_like, submesh
 from neuraluv_paper.bench.common import combine_metrics, peak_rss_mb, slim_reference
-from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, machine_info, markdown_table,
-                                             print_report, save_figure, write_csv, write_markdown)
+from neuraluv_paper.bench.provenance import (BenchOutput, RowLog, command_line, fmt_num, machine_info,
+                                             markdown_table, print_report, save_figure, write_csv, write_markdown)
 from neuraluv_paper.bench.speed_atlas import atlas_timing
 from neuraluv_paper.bench.speed_pareto import pareto
 
@@ -229,8 +229,12 @@ def _time_preset(preps, cfg, device, max_seconds):
 
 
 def bench(charts=None, presets=None, *, quick=False, output="results/speed", device="auto", max_seconds=None,
-          show_progress=True, argv=None):
-    """Run the speed benchmark; returns a :class:`~neuraluv_paper.bench.provenance.BenchOutput`."""
+          show_progress=True, argv=None, resume=False):
+    """Run the speed benchmark; returns a :class:`~neuraluv_paper.bench.provenance.BenchOutput`.
+
+    Every finished row goes to ``OUTPUT/rows.jsonl`` at once, so a run stopped part way keeps
+    its rows, and ``resume=True`` (``--resume``) continues with the rows not yet there.
+    """
     import torch
 
     from neuraluv.solver.chart import prepare_chart
@@ -243,6 +247,8 @@ def bench(charts=None, presets=None, *, quick=False, output="results/speed", dev
     max_seconds = max_seconds if max_seconds is not None else (30.0 if quick else 900.0)
     loaded, notes = speed_charts(names, quick)
     machine = machine_info(dev)
+    log = RowLog(out / "rows.jsonl", resume=resume)
+    setting = {"device": str(dev), "max_seconds": max_seconds, "quick": bool(quick)}
     rows = []
     for name, what, charts_ in loaded:
         n_faces = sum(len(F) for _, F in charts_)
@@ -251,6 +257,10 @@ def bench(charts=None, presets=None, *, quick=False, output="results/speed", dev
                 "device": str(dev)}
         slim_done = {}
         for preset in presets:
+            if log.done((name, preset, setting)):  # non-finite numbers were logged as strings
+                rows.append({k: float(v) if v in ("nan", "inf", "-inf") else v
+                             for k, v in log.get((name, preset, setting)).items()})
+                continue
             cfg = get_config(preset)
             if quick and preset == "paper":
                 cfg = get_config(cfg, iterations=20)
@@ -281,6 +291,7 @@ def bench(charts=None, presets=None, *, quick=False, output="results/speed", dev
                        ratio_slim1k=wall / s1k[0] if s1k[0] > 0 else float("nan"), peak_rss_mb=peak,
                        start=key, stops=",".join(sorted(set(r["stops"]))))
             rows.append(row)
+            log.add((name, preset, setting), row)
             if show_progress:
                 print(f"{name:10s} {preset:6s} {n_faces:6d} faces: floor {1e3 * floor:7.2f} ms, per it {1e3 * per_it:7.2f} ms "
                       f"(x{row['ratio_floor']:.2f}), {row['iterations']} its, wall {wall:7.1f}s{' (projected)' if r['projected'] else ''}, "
@@ -372,5 +383,6 @@ def run(args):
         return print_report(pareto(output=args.output, device=args.device, quick=args.quick,
                                    show_progress=not args.quiet))
     return print_report(bench(args.charts or args.meshes, args.presets, quick=args.quick, output=args.output,
-                              device=args.device, max_seconds=args.max_seconds, show_progress=not args.quiet))
+                              device=args.device, max_seconds=args.max_seconds, show_progress=not args.quiet,
+                              resume=args.resume))
 
