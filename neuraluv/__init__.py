@@ -26,7 +26,7 @@ torch nor scipy.
 """
 from __future__ import annotations
 
-import importlib
+from neuraluv.lazy import lazy_exports
 
 __version__ = "0.3.0"
 
@@ -50,11 +50,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS) + ["__version__"]
 
 
-def __getattr__(name):
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(f"neuraluv.{_EXPORTS[name]}"), name)
-    raise AttributeError(f"module 'neuraluv' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -23,7 +23,7 @@ layout is, and everything both ask of one, is :mod:`neuraluv.layout`.
 """
 from __future__ import annotations
 
-import importlib
+from neuraluv.lazy import lazy_exports
 
 #: name -> module of this package that defines it (imported on first use: ``neuraluv unwrap`` needs
 #: only :mod:`~neuraluv.atlas.unwrap`, not the atlas pipeline's modules and trimesh).
@@ -45,11 +45,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name):
-    if name in _WHERE:
-        return getattr(importlib.import_module(f"neuraluv.atlas.{_WHERE[name]}"), name)
-    raise AttributeError(f"module 'neuraluv.atlas' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())

@@ -11,7 +11,7 @@ renamed, so an interrupted run never leaves a half-written output behind.
 """
 from __future__ import annotations
 
-import importlib
+from neuraluv.lazy import lazy_exports
 
 #: File extensions :func:`~neuraluv.io.mesh.load_mesh` reads.
 MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
@@ -25,11 +25,4 @@ _WHERE = {"atomic_write": "files", "jsonable": "files", "write_json": "files", "
 __all__ = ["MESH_EXTENSIONS", *_WHERE]
 
 
-def __getattr__(name):
-    if name in _WHERE:
-        return getattr(importlib.import_module(f"neuraluv.io.{_WHERE[name]}"), name)
-    raise AttributeError(f"module 'neuraluv.io' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())

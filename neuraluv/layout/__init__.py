@@ -21,7 +21,7 @@ Layouts are plain arrays: ``UV (p,2)`` rows indexed per corner by ``FUV (m,3)``
 """
 from __future__ import annotations
 
-import importlib
+from neuraluv.lazy import lazy_exports
 
 #: name -> module of this package that defines it (imported on first use, so that ``neuraluv.layout.pack``'s
 #: settings stay cheap to import, e.g. for the command line's help).
@@ -37,11 +37,4 @@ _WHERE = {
 __all__ = sorted(_WHERE)
 
 
-def __getattr__(name):
-    if name in _WHERE:
-        return getattr(importlib.import_module(f"neuraluv.layout.{_WHERE[name]}"), name)
-    raise AttributeError(f"module 'neuraluv.layout' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())

@@ -18,7 +18,7 @@ benchmark is the harness's (:mod:`neuraluv_paper.damage`).
 """
 from __future__ import annotations
 
-import importlib
+from neuraluv.lazy import lazy_exports
 
 __all__ = ["diagnose_layout", "repair_layout", "untangle", "polish", "RepairResult", "UVDiagnosis"]
 
@@ -26,7 +26,4 @@ _WHERE = {"diagnose_layout": "diagnose", "UVDiagnosis": "diagnose", "repair_layo
           "RepairResult": "repair", "untangle": "untangle", "polish": "untangle"}
 
 
-def __getattr__(name):
-    if name in _WHERE:
-        return getattr(importlib.import_module(f"neuraluv.repair.{_WHERE[name]}"), name)
-    raise AttributeError(f"module 'neuraluv.repair' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())

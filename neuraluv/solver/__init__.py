@@ -21,7 +21,7 @@ is imported on first use.
 """
 from __future__ import annotations
 
-import importlib
+from neuraluv.lazy import lazy_exports
 
 from neuraluv.solver.config import PRESET_HELP, PRESETS, SolverConfig, get_config
 
@@ -35,11 +35,4 @@ _LAZY = {
 }
 
 
-def __getattr__(name):
-    if name in _LAZY:
-        return getattr(importlib.import_module(f"neuraluv.solver.{_LAZY[name]}"), name)
-    raise AttributeError(f"module 'neuraluv.solver' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals())

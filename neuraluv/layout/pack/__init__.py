@@ -15,7 +15,7 @@ texel density are kept.
 """
 from __future__ import annotations
 
-import importlib
+from neuraluv.lazy import lazy_exports
 
 #: Packers of :func:`neuraluv.atlas.build_atlas` (the first is the default).
 PACKERS = ("tight", "shelf", "xatlas")
@@ -60,11 +60,4 @@ __all__ = ["PACKERS", "PackResult", "shelf_pack", "raster_pack", "tight_pack", "
            "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS", "START_FILL"]
 
 
-def __getattr__(name):
-    if name in _WHERE:
-        return getattr(importlib.import_module(f"neuraluv.layout.pack.{_WHERE[name]}"), name)
-    raise AttributeError(f"module 'neuraluv.layout.pack' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())
