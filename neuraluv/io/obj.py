@@ -209,13 +209,12 @@ def read_obj(path, *, strict=True, keep_lines=False):
                 fail(start, "the file ends inside a continued line (a backslash at the end of the last line)")
         except UnicodeDecodeError:
             raise MeshLoadError(f"{name}: not a text OBJ file (bytes that are not UTF-8)") from None
-    n_read = count
     V = np.asarray(V, float).reshape(-1, 3)
     F = np.asarray(F, np.int64).reshape(-1, 3)
     UV = np.asarray(UV, float).reshape(-1, 2)
     FUV = np.asarray(FUV, np.int64).reshape(-1, 3) if (any_vt and len(F)) else None
     out = ObjData((V, F, UV, FUV))
-    out.notes = {"polygons": int(polygons), "lines": n_read}
+    out.notes = {"polygons": int(polygons), "lines": count}
     if keep_lines:
         out.notes.update(raw=raw_lines, joined=joined, vt_line=np.asarray(vt_line, np.int64),
                          face_line=np.asarray(face_line, np.int64), face_fan=np.asarray(face_fan, np.int64))
@@ -278,6 +277,9 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
 
     def text(L):  # a logical line's text (continued lines joined)
         return joined[L][0] if L in joined else raw[L]
+
+    def ending(L):  # a logical line's line ending: that of its last physical line
+        return _ending(raw[joined[L][1]] if L in joined else raw[L])
     UV = np.asarray(UV, float)
     FUV = np.asarray(FUV, np.int64)
     if not np.isfinite(UV).all():
@@ -292,7 +294,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     for r in np.flatnonzero(~same):
         L = int(notes["vt_line"][r])
         bom = "\ufeff" if L == 0 and raw[0].startswith("\ufeff") else ""
-        new_line[L] = f"{bom}vt {float(UV[r, 0])!r} {float(UV[r, 1])!r}" + _ending(raw[joined[L][1]] if L in joined else raw[L])
+        new_line[L] = f"{bom}vt {float(UV[r, 0])!r} {float(UV[r, 1])!r}" + ending(L)
     face_changed = (FUV != FUV0).any(1)
     if len(notes["vt_line"]):
         insert_at = int(notes["vt_line"][-1]) + 1
@@ -312,7 +314,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     for L in sorted(lines_to_rewrite):
         tri = order[np.searchsorted(fl_sorted, L, "left"):np.searchsorted(fl_sorted, L, "right")]
         tri = tri[np.argsort(notes["face_fan"][tri])]
-        body, _, comment = text(L).lstrip("\ufeff").rstrip("\r\n").partition("#")
+        body, _, comment = text(L).rstrip("\r\n").partition("#")
         toks = body.split()[1:]
         nc = len(toks)
         vt = [None] * nc
@@ -334,7 +336,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
             parts[1] = str(row + 1)
             return "/".join(parts)
 
-        end = _ending(raw[joined[L][1]] if L in joined else raw[L])
+        end = ending(L)
         tail = (" #" + comment) if comment else ""
         if consistent and None not in vt:
             new_line[L] = "f " + " ".join(corner_token(tok, r) for tok, r in zip(toks, vt)) + tail + end

@@ -4,14 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from neuraluv.layout import facts
-from neuraluv.layout.pack import (
-    ORDER_JITTER,
-    ORDER_MAX_ISLANDS,
-    PACK_TRIALS,
-    RASTER_MAX_ISLANDS,
-    RASTER_TRIALS,
-    SPLIT_GAIN,
-)
+from neuraluv.layout.pack import (ORDER_JITTER, ORDER_MAX_ISLANDS, PACK_TRIALS, RASTER_MAX_ISLANDS, RASTER_TRIALS,
+                                  SPLIT_GAIN)
 from neuraluv.layout.pack.cuts import granular_islands
 from neuraluv.layout.pack.raster import island_outlines, raster_pack
 from neuraluv.layout.pack.result import uv_area
@@ -39,8 +33,8 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
     by :func:`~neuraluv.layout.pack.cuts.granular_islands` (a few large islands leave gaps no
     placement can fill), and that packing is kept when it is fuller by at least
     :data:`SPLIT_GAIN` on no more pages (its trials search only from the whole packing's
-    fill up: a cut packing that cannot reach it is dropped after one placement per rule); its ``pieces`` then say which part of which island
-    each packed island is.
+    fill up: a cut packing that cannot reach it is dropped after one placement per rule);
+    its ``pieces`` then say which part of which island each packed island is.
 
     Parameters
     ----------
