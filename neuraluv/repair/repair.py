@@ -36,11 +36,12 @@ from neuraluv.atlas.candidates import chart_candidates
 from neuraluv.atlas.routing import fallback_islands, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
-from neuraluv.layout.facts import face_clusters, layout_facts
+from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs, triangles_union
 from neuraluv.layout.pack import shelf_pack
 from neuraluv.layout.place import FreeSpace
 from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box
+from neuraluv.meshfix import face_areas
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.plot import plot_repair
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
@@ -132,8 +133,14 @@ class RepairResult:
 def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadline):
     """Re-solve an island as a chart (atlas router), scaled to ``density`` and fitted to where it was.
 
+    Faces without 3D area are left out (their UVs stay as they are, as ``check --uv`` says: no
+    map of a chart is defined on them, and the router would give them none).
+
     Returns the new rows ``[(face_ids, rows_uv (k,2), local faces (f,3)), ...]`` and the routes.
     """
+    faces = faces[face_areas(Vn, F[faces]) > DEGENERATE_3D_AREA]
+    if not len(faces):
+        return [], []
     T = FUV[faces]
     rows = np.unique(T)
     Fc = np.searchsorted(rows, T)
