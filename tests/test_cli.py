@@ -148,14 +148,23 @@ def test_cli_check_uv_and_repair(tmp_path, capsys):
     uv, _ = damage.mirror_island(uv, FUV, b)
     broken = tmp_path / "broken.obj"
     write_layout(broken, V, F, uv, FUV)
+    # the default purpose (texture): a mirrored island and two islands on the same texels are intent, not damage
     assert main(["check", "--uv", str(broken), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["purpose"] == "texture" and rep["ok"] and not rep["problems"]
+    assert {"mirrored", "shared_texels"} <= {p["kind"] for p in rep["features"]}
+    assert main(["repair", str(broken), "-o", str(tmp_path / "kept.obj"), "--quiet"]) == 0
+    assert (tmp_path / "kept.obj").read_bytes() == broken.read_bytes()
+    assert "purpose: texture (default" in capsys.readouterr().out
+    # a bake's rules: both are problems, and repair makes the layout unique
+    assert main(["check", "--uv", str(broken), "--json", "--purpose", "bake"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert {"mirrored_island", "island_overlap"} <= {p["kind"] for p in rep["problems"]}
     code = main(["repair", str(broken), "-o", str(tmp_path / "fixed.obj"), "--report", str(tmp_path / "r.json"),
-                 "--figure", str(tmp_path / "r.png"), "--quiet"])
+                 "--figure", str(tmp_path / "r.png"), "--quiet", "--purpose", "bake"])
     assert code == 0, capsys.readouterr()
     r = json.loads((tmp_path / "r.json").read_text())
-    assert r["readback"]["valid"] and r["after"]["ok"]
+    assert r["readback"]["valid"] and r["after"]["ok"] and r["readback"]["purpose"] == "bake"
     assert (tmp_path / "r.png").stat().st_size > 1000
     d = diagnose_layout(*read_obj(tmp_path / "fixed.obj"))
     assert d.ok, [p["kind"] for p in d.problems]

@@ -16,6 +16,7 @@ from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_opti
                                   positive_int, time_budget_option)
 from neuraluv.cli.paths import check_paths
 from neuraluv.errors import NeuralUVError, require
+from neuraluv.layout import PURPOSES
 from neuraluv.layout.pack import ORDER_MAX_ISLANDS, PACK_TRIALS, PACKERS
 
 __all__ = ["register"]
@@ -143,22 +144,36 @@ def _read_layout(inp):
     return V, F, UV, FUV, None
 
 
+def _purpose(args, inp, data):
+    """The purpose asked for, or the default for this file, and a one-line reason."""
+    from neuraluv.io import layout_materials
+    from neuraluv.layout.purpose import default_purpose
+
+    if args.purpose != "auto":
+        return args.purpose, "asked for"
+    purpose, why = default_purpose(**layout_materials(inp, data))
+    return purpose, f"default: {why}; --purpose bake for a unique layout to bake into"
+
+
 def cmd_check_uv(args):
     from neuraluv.repair.diagnose import diagnose_layout
 
     inp, _, _ = check_paths(args.input, input_exts=(".obj", ".glb", ".gltf"))
-    V, F, UV, FUV, _ = _read_layout(inp)
-    d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding)
+    V, F, UV, FUV, data = _read_layout(inp)
+    purpose, why = _purpose(args, inp, data)
+    d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding, purpose=purpose)
+    d.info["purpose_reason"] = why
     if args.json:
         print(json.dumps(d.as_dict(), indent=2))
     else:
+        print(f"purpose: {purpose} ({why})")
         print(d.format(inp.name, limit=None if args.all else 5))
     return EXIT_OK
 
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.io import patch_obj, write_json
+    from neuraluv.io import atomic_write, patch_obj, write_json
     from neuraluv.layout.validate import validate_layout
     from neuraluv.repair.repair import repair_layout
     from neuraluv.solver.device import resolve_device
@@ -170,18 +185,29 @@ def cmd_repair(args):
     if not args.no_neural:
         resolve_device(args.device)
     V, F, UV, FUV, data = _read_layout(inp)
+    purpose, why = _purpose(args, inp, data)
+    print(f"purpose: {purpose} ({why})")
     res = repair_layout(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device, threads=args.threads,
                         resolution=args.resolution, padding=args.padding, time_budget=args.time_budget or None,
-                        neural=not args.no_neural, **_overrides(args))
+                        neural=not args.no_neural, purpose=purpose, **_overrides(args))
     if data is not None and out.suffix.lower() == ".obj":
         written = patch_obj(inp, out, res.UV, res.FUV, data=data)  # every other line of the input kept byte for byte
+    elif res.unchanged and out.suffix.lower() == inp.suffix.lower():
+        with atomic_write(out, "wb") as fh:  # nothing changed: the input's bytes, not a re-export
+            fh.write(inp.read_bytes())
+        written = {"format": out.suffix.lower(), "copied": True}
     else:
         write_atlas(out, res.V, res.F, res.UV, res.FUV)
         written = {"format": out.suffix.lower()}
-    # the verdict is taken on the written file
-    V2, F2, UV2, FUV2 = read_atlas(out)
-    back = validate_layout(V2, F2, UV2, FUV2, check_padding=False)
+    # the verdict is taken on the written file, by the same purpose's rules as the check
+    try:
+        V2, F2, UV2, FUV2 = read_atlas(out)
+    except NeuralUVError as exc:  # a written file our own reader refuses must not be left behind as a result
+        out.unlink(missing_ok=True)
+        raise NeuralUVError(f"the repaired file could not be read back ({exc}); nothing written") from None
+    back = validate_layout(V2, F2, UV2, FUV2, check_padding=False, purpose=purpose)
     rep = res.report()
+    rep["purpose"] = {"purpose": purpose, "reason": why}
     rep["written"] = written
     rep["readback"] = back
     if args.report:
@@ -200,9 +226,13 @@ def cmd_repair(args):
         plt.close(fig)
     print(f"wrote {out}: {res.summary()}")
     if not back["valid"]:
-        print(f"neuraluv: the repaired layout read back from {out.name} is not valid: {back['flips']} flips, "
-              f"{back['overlapping_pairs']} overlapping island pairs, {back['self_overlapping_islands']} "
-              "self-overlapping islands (see the report)", file=sys.stderr)
+        what = (f"{back['folded_faces']} folded and {back['degenerate_faces']} UV-degenerate faces inside shells, "
+                f"{back['faces'] - back['covered_faces'] + back['non_finite_faces']} faces without usable UVs"
+                if purpose == "texture" else
+                f"{back['flips']} flips, {back['overlapping_pairs']} overlapping island pairs, "
+                f"{back['self_overlapping_islands']} self-overlapping islands")
+        print(f"neuraluv: the repaired layout read back from {out.name} is not valid as a {purpose} layout: {what} "
+              "(see the report)", file=sys.stderr)
         return EXIT_INVALID
     return EXIT_OK
 
@@ -230,6 +260,14 @@ def _atlas_options(p):
     add_solver_options(p)
 
 
+def _purpose_option(p, prefix):
+    p.add_argument("--purpose", default="auto", choices=["auto", *PURPOSES],
+                   help=prefix + "what the layout is for: texture (an artist's layout: mirrored, stacked, tiled, UDIM "
+                   "and palette shells are intentional; only folds, UV-degenerate faces and missing/NaN UVs are "
+                   "problems), bake or lightmap (unique, unmirrored, in [0,1]², padded). auto (default): texture, "
+                   "which changes the least; the reason is printed")
+
+
 def register(sub):
     """Add ``check``, ``atlas``, ``repair`` and ``sweep`` to the ``neuraluv`` parser."""
     c = sub.add_parser("check", help="explain a mesh's problems and the repairs the atlas pipeline applies",
@@ -241,6 +279,7 @@ def register(sub):
     c.add_argument("--uv", action="store_true",
                    help="diagnose the file's UV layout instead (OBJ with vt, or GLB): flips, mirrored islands, "
                         "overlaps, missing/NaN UVs, bounds, texel density, padding; and what `repair` would do")
+    _purpose_option(c, "with --uv: ")
     c.add_argument("--resolution", type=positive_int, default=1024, help="with --uv: texture resolution (default 1024)")
     c.add_argument("--padding", type=nonneg_float, default=2.0, help="with --uv: required gap in texels (default 2)")
     c.set_defaults(func=lambda args: (cmd_check_uv if args.uv else cmd_check)(args))
@@ -274,6 +313,7 @@ def register(sub):
     r.add_argument("--figure", help="PNG: the layout before and after, changed faces highlighted")
     r.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     r.add_argument("--padding", type=nonneg_float, default=2.0, help="gap kept around moved and new islands, in texels (default 2)")
+    _purpose_option(r, "")
     r.add_argument("--no-neural", action="store_true", help="untangle/polish/move only; islands that need a re-solve stay broken")
     _atlas_options(r)
     time_budget_option(r, 300)

@@ -1,7 +1,7 @@
 """Reading meshes and writing UV-mapped meshes and reports.
 
 ===========  =====================================================================
-``mesh``     :func:`load_mesh` (trimesh; libigl for ``.mesh``), :func:`check_mesh_arrays`
+``mesh``     :func:`load_mesh` (trimesh; libigl for ``.mesh``), :func:`check_mesh_arrays`, :func:`layout_materials`
 ``obj``      :func:`read_obj` (strict), :func:`write_obj`, :func:`patch_obj` (only changed lines)
 ``files``    :func:`atomic_write`, :func:`jsonable`, :func:`write_json`, :func:`write_csv`
 ===========  =====================================================================
@@ -19,7 +19,7 @@ MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
 #: name -> module of this package that defines it (imported on first use: the command line checks paths
 #: against :data:`MESH_EXTENSIONS` without loading numpy).
 _WHERE = {"atomic_write": "files", "jsonable": "files", "write_json": "files", "write_csv": "files",
-          "check_mesh_arrays": "mesh", "load_mesh": "mesh",
+          "check_mesh_arrays": "mesh", "load_mesh": "mesh", "layout_materials": "mesh",
           "ObjData": "obj", "read_obj": "obj", "write_obj": "obj", "patch_obj": "obj"}
 
 __all__ = ["MESH_EXTENSIONS", *_WHERE]

@@ -174,3 +174,60 @@ def load_mesh(path) -> tuple[np.ndarray, np.ndarray]:
         V = np.asarray(loaded.vertices, dtype=np.float64)
         F = np.asarray(loaded.faces)
     return check_mesh_arrays(V, F, name=path.name)
+
+
+def layout_materials(path, data=None):
+    """How many materials and textures a layout's file references: ``{"materials": n, "textures": k}``.
+
+    OBJ: ``usemtl`` names and the ``map_*`` lines of the ``mtllib`` files found beside it; glTF / GLB:
+    the ``materials`` and ``textures`` arrays of its JSON. Unreadable parts count as none. The CLI's
+    default purpose is ``texture`` when either is non-zero
+    (:func:`~neuraluv.layout.purpose.default_purpose`).
+
+    Parameters
+    ----------
+    path : str or Path
+    data : ignored (the reader's parsed data; kept for a uniform call)
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.mtl").write_text("newmtl skin\\nmap_Kd skin.png\\n")
+    >>> _ = (d / "a.obj").write_text("mtllib a.mtl\\nusemtl skin\\nv 0 0 0\\n")
+    >>> layout_materials(d / "a.obj")
+    {'materials': 1, 'textures': 1}
+    """
+    import json
+    import struct
+
+    path = Path(path)
+    ext = path.suffix.lower()
+    try:
+        if ext == ".obj":
+            mats, libs = set(), []
+            with open(path, "rb") as fh:
+                for raw in fh:
+                    tok = raw.split(None, 1)
+                    if len(tok) == 2 and tok[0] == b"usemtl":
+                        mats.add(tok[1].strip())
+                    elif len(tok) == 2 and tok[0] == b"mtllib":
+                        libs.append(tok[1].strip().decode("utf-8", "replace"))
+            maps = 0
+            for lib in libs:
+                p = path.parent / lib
+                if p.is_file():
+                    maps += sum(1 for ln in p.read_bytes().splitlines() if ln.strip().lower().startswith(b"map_"))
+            return {"materials": len(mats), "textures": maps}
+        if ext == ".glb":
+            with open(path, "rb") as fh:
+                head = fh.read(20)
+                length, kind = struct.unpack("<I4s", head[12:20])
+                doc = json.loads(fh.read(length)) if kind == b"JSON" else {}
+        elif ext == ".gltf":
+            doc = json.loads(path.read_text(encoding="utf-8"))
+        else:
+            return {"materials": 0, "textures": 0}
+        return {"materials": len(doc.get("materials", [])), "textures": len(doc.get("textures", []))}
+    except (OSError, ValueError, struct.error):
+        return {"materials": 0, "textures": 0}

@@ -8,7 +8,10 @@ clients of this package:
                 the one texel density, read once (:class:`LayoutFacts`)
 ``overlap``     the one exact overlap engine (triangle pairs), island outlines,
                 gaps, :func:`boundary_is_simple`
-``validate``    :func:`validate_layout`: flips, overlaps, bounds, padding
+``purpose``     :func:`layout_intent`: what a layout is for decides what is a problem
+                (``texture``: mirrored, stacked, tiled and palette shells are intent;
+                ``bake`` / ``lightmap``: unique, unmirrored, in the square)
+``validate``    :func:`validate_layout`: flips, overlaps, bounds, padding (per purpose)
 ``rigid``       the one rigid fit (Procrustes), quarter turns, island orientation
 ``raster``      the one rasteriser and free-spot search (:class:`~neuraluv.layout.raster.Page`)
 ``place``       moving an island into free space (:class:`FreeSpace`)
@@ -23,6 +26,16 @@ from __future__ import annotations
 
 from neuraluv.lazy import lazy_exports
 
+#: The purposes a layout can have, and what each means (:mod:`~neuraluv.layout.purpose`; here so that the
+#: command line's help lists them without loading numpy).
+PURPOSES = {
+    "texture": "an artist's texture layout: mirrored, stacked, tiled, UDIM and palette-collapsed shells are "
+               "intentional; folds, UV-degenerate faces inside a shell and missing/NaN UVs are problems",
+    "bake": "a layout to bake into: unique, unmirrored, inside [0,1]², padded (every overlap, mirror or tile "
+            "is a problem)",
+    "lightmap": "as bake (a lightmap is baked)",
+}
+
 #: name -> module of this package that defines it (imported on first use, so that ``neuraluv.layout.pack``'s
 #: settings stay cheap to import, e.g. for the command line's help).
 _WHERE = {
@@ -32,9 +45,10 @@ _WHERE = {
     "boundary_is_simple": "overlap", "validate_layout": "validate", "validate_facts": "validate",
     "rigid_fit": "rigid", "quarter_turn": "rigid", "rotate_to_min_box": "rigid", "upright": "rigid",
     "FreeSpace": "place", "Placement": "place", "float32_uvs": "precision",
+    "layout_intent": "purpose", "LayoutIntent": "purpose", "default_purpose": "purpose", "check_purpose": "purpose",
 }
 
-__all__ = sorted(_WHERE)
+__all__ = sorted(["PURPOSES", *_WHERE])
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())

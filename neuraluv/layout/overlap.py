@@ -125,6 +125,40 @@ def pair_areas(P, Q):
     return shapely.area(shapely.intersection(_polygons(np.asarray(P, float)), _polygons(np.asarray(Q, float))))
 
 
+def points_in_triangles(points, tris):
+    """Which triangles contain which points (strictly inside): pairs ``(point, triangle)``.
+
+    Parameters
+    ----------
+    points : (k,2) float array
+    tris : (t,3,2) float array
+
+    Returns
+    -------
+    p, t : (q,) int arrays
+
+    Examples
+    --------
+    >>> T = np.array([[[0., 0], [1, 0], [0, 1]], [[2., 2], [3, 2], [2, 3]]])
+    >>> [a.tolist() for a in points_in_triangles(np.array([[0.2, 0.2], [5., 5], [2.1, 2.1]]), T)]
+    [[0, 2], [0, 1]]
+    """
+    points = np.asarray(points, float).reshape(-1, 2)
+    tris = np.asarray(tris, float).reshape(-1, 3, 2)
+    if not len(points) or not len(tris):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    lo, hi = tris.min(1), tris.max(1)
+    p, t = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])).query(shapely.points(points))
+    a, b, c, q = tris[t, 0], tris[t, 1], tris[t, 2], points[p]
+
+    def cross(u, v, w):
+        return (v[:, 0] - u[:, 0]) * (w[:, 1] - u[:, 1]) - (v[:, 1] - u[:, 1]) * (w[:, 0] - u[:, 0])
+
+    s = np.sign(cross(a, b, c))
+    inside = (s != 0) & (np.sign(cross(a, b, q)) == s) & (np.sign(cross(b, c, q)) == s) & (np.sign(cross(c, a, q)) == s)
+    return p[inside].astype(np.int64), t[inside].astype(np.int64)
+
+
 def overlap_pairs(UV, FUV, faces, subset=None, *, areas=False):
     """Pairs of ``faces`` whose UV triangles overlap (exactly; touching does not count).
 

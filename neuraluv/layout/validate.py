@@ -13,6 +13,7 @@ import numpy as np
 
 from neuraluv.layout.facts import density_spread, layout_facts
 from neuraluv.layout.overlap import gaps, triangles_union
+from neuraluv.layout.purpose import check_purpose, layout_intent
 
 __all__ = ["validate_layout", "validate_facts"]
 
@@ -34,6 +35,14 @@ def validate_layout(V, F, UV, FUV=None, **kw):
     tiles : bool
         UDIM layout: every face must lie inside one unit tile ``[i, i+1] × [j, j+1]``
         (``i, j ≥ 0``) instead of inside ``[0,1]²``.
+    purpose : {"bake", "lightmap", "texture"}
+        ``bake`` / ``lightmap`` (default): the rules below. ``texture``: an artist's layout
+        (:mod:`~neuraluv.layout.purpose`): valid when every face has finite UVs and no face is
+        folded or UV-degenerate inside its shell; mirrored, stacked, tiled and palette shells
+        are allowed, and the dict holds ``flips`` (folded + degenerate + unusable faces),
+        ``folded_faces``, ``degenerate_faces``, ``shells``, ``mirrored_shell_faces``,
+        ``palette_faces``, ``covered_faces``, ``non_finite_faces``, ``min_det`` (oriented like
+        each face's shell) and ``valid``.
     stacked : bool
         Islands stacked on purpose (``build_atlas(stack=True)``): two islands covering
         exactly the same region (symmetric difference below 1e-9 of their area) are
@@ -68,8 +77,11 @@ def validate_layout(V, F, UV, FUV=None, **kw):
     return validate_facts(layout_facts(V, F, UV, FUV), **kw)
 
 
-def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles=False, stacked=False):
+def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles=False, stacked=False,
+                   purpose="bake"):
     """:func:`validate_layout` of a layout whose :class:`~neuraluv.layout.facts.LayoutFacts` ``f`` the caller holds."""
+    if check_purpose(purpose) == "texture":
+        return _validate_texture(f)
     m, n = len(f.F), f.n_islands
     usable = f.usable
     covered = int((~f.missing).sum())
@@ -118,4 +130,28 @@ def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles
         "padding_violations": pad_viol, "padding_texels": padding, "resolution": resolution,
         "min_gap_texels": gap_tex, "uv_in_unit_square": in_box, "valid": bool(valid),
         "density_spread": density_spread(f.density), "stacked_islands": len({j for _, j in on_top}),
+        "purpose": "bake",
+    }
+
+
+def _validate_texture(f):
+    """The texture purpose's verdict (:func:`~neuraluv.layout.purpose.layout_intent`): every face has finite UVs,
+    no fold, no UV-degenerate face inside a shell; mirrored, stacked, tiled and palette shells are allowed."""
+    it = layout_intent(f, "texture")
+    m = len(f.F)
+    covered = int((~f.missing).sum())
+    non_finite = int(f.non_finite.sum())
+    folds = int(it.fold.sum())
+    degen = int(it.degenerate.sum())
+    flips = folds + degen + (m - int(f.usable.sum()))
+    good = f.usable & ~f.degenerate3d & ~it.palette & (it.shell >= 0)
+    sign = np.where(it.shell >= 0, it.shell_sign[np.maximum(it.shell, 0)], 1) if len(it.shell_sign) else np.ones(m)
+    oriented = f.det * sign
+    min_det = float(oriented[good].min()) if good.any() else None
+    return {
+        "faces": m, "covered_faces": covered, "non_finite_faces": non_finite, "flips": flips, "folded_faces": folds,
+        "degenerate_faces": degen, "min_det": min_det, "zero_area_faces": int(f.degenerate3d.sum()),
+        "islands": int(f.n_islands), "shells": int(len(it.shell_sign)), "mirrored_shell_faces": int(it.mirrored_shell.sum()),
+        "palette_faces": int(it.palette.sum()), "valid": bool(covered == m and non_finite == 0 and folds == 0 and degen == 0),
+        "purpose": "texture",
     }

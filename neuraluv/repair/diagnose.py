@@ -18,6 +18,7 @@ import numpy as np
 from neuraluv import __version__
 from neuraluv.io import jsonable
 from neuraluv.layout.facts import face_clusters, layout_facts
+from neuraluv.layout.purpose import check_purpose, layout_intent
 from neuraluv.layout.validate import validate_facts
 
 __all__ = ["UVDiagnosis", "diagnose_layout"]
@@ -36,6 +37,9 @@ class UVDiagnosis:
         (the first 1,000), ``where`` (3D centroid of the faces, in the input's coordinates, and UV box),
         ``action`` (what ``neuraluv repair`` does).
     warnings : list of dict, the same fields; conditions repair leaves as they are.
+    features : list of dict, the same fields; what the purpose calls intentional (under ``texture``:
+        mirrored shells, islands sharing texels, tiles and UDIMs outside ``[0,1]²``, palette collapses).
+    purpose : str, the purpose the layout was judged by (:mod:`~neuraluv.layout.purpose`).
     validation : dict, :func:`~neuraluv.layout.validate.validate_facts` of the layout as given.
     """
 
@@ -47,6 +51,8 @@ class UVDiagnosis:
     resolution: int = 1024
     padding: float = 2.0
     info: dict = field(default_factory=dict)
+    purpose: str = "bake"
+    features: list = field(default_factory=list)
 
     @property
     def ok(self):
@@ -54,8 +60,8 @@ class UVDiagnosis:
         return not self.problems
 
     def as_dict(self):
-        return jsonable({"neuraluv": __version__, "faces": self.faces, "ok": self.ok, "problems": self.problems,
-                         "warnings": self.warnings, "islands": self.islands, "validation": self.validation,
+        return jsonable({"neuraluv": __version__, "purpose": self.purpose, "faces": self.faces, "ok": self.ok,
+                         "problems": self.problems, "features": self.features, "warnings": self.warnings, "islands": self.islands, "validation": self.validation,
                          "resolution": self.resolution, "padding_texels": self.padding, **self.info})
 
     def format(self, name="layout", limit=5):
@@ -70,12 +76,14 @@ class UVDiagnosis:
         """
         n_isl = len(self.islands)
         dens = [i["texel_density"] for i in self.islands if i["texel_density"] is not None]
-        lines = [f"{name}: {self.faces:,} faces, {n_isl} UV islands"
+        lines = [f"{name}: {self.faces:,} faces, {n_isl} UV islands, judged as a {self.purpose} layout"
                  + (f", texel density {min(dens):.3g}–{max(dens):.3g} UV per unit length (normalised mesh)" if dens else "")]
-        if self.ok:
+        if self.ok and self.purpose == "texture":
+            lines.append("  nothing to repair: no folded or degenerate faces inside a shell, no missing or non-finite UVs")
+        elif self.ok:
             lines.append("  nothing to repair: no flipped, degenerate, mirrored, overlapping, missing or non-finite "
                          "UVs, all inside [0,1]²")
-        for label, items in (("problem", self.problems), ("warning", self.warnings)):
+        for label, items in (("problem", self.problems), ("feature", self.features), ("warning", self.warnings)):
             for kind, group in _by_kind(items).items():
                 shown = group if limit is None else group[:limit]
                 for p in shown:
@@ -86,6 +94,8 @@ class UVDiagnosis:
         counts = "; ".join(f"{k} {len(g):,}" for k, g in _by_kind(self.problems).items())
         lines.append(f"summary: {len(self.problems):,} problem{'s' * (len(self.problems) != 1)}"
                      + (f" ({counts})" if counts else "")
+                     + (f", {len(self.features):,} intentional feature{'s' * (len(self.features) != 1)} (kept)"
+                        if self.features else "")
                      + f", {len(self.warnings):,} warning{'s' * (len(self.warnings) != 1)}"
                      + ("; nothing to repair" if self.ok else "; `neuraluv repair` fixes the problems"))
         return "\n".join(lines)
@@ -108,7 +118,9 @@ def _describe(p):
     if where.get("uv_box") is not None:
         (a, b), (c, d) = where["uv_box"]
         loc += f", UV [{a:.3f}, {b:.3f}]–[{c:.3f}, {d:.3f}]"
-    who = f"island {p['island']}" if "island" in p else (f"islands {', '.join(map(str, p['islands']))}" if "islands" in p else "")
+    isl = p.get("islands", [])
+    many = f"islands {', '.join(map(str, isl[:8]))}" + (f", … ({len(isl):,} in all)" if len(isl) > 8 else "")
+    who = f"island {p['island']}" if "island" in p else (many if "islands" in p else "")
     return f"{p['message']}" + (f" ({who})" if who else "") + loc
 
 
@@ -131,7 +143,7 @@ def _problem(kind, message, action, faces, V, F, UV, FUV, **extra):
             "where": _where(V, F, UV, FUV, faces), "action": action}
 
 
-def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=None):
+def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=None, purpose="bake"):
     """Every problem of a supplied UV layout, where it is, and what repair will do.
 
     Parameters
@@ -147,6 +159,12 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         Required gap between islands, in texels (a warning when violated).
     facts : :class:`~neuraluv.layout.facts.LayoutFacts`, optional
         Already computed (of the same layout).
+    purpose : {"bake", "lightmap", "texture"}
+        What the layout is for (:mod:`~neuraluv.layout.purpose`): ``bake`` / ``lightmap`` judge by
+        a bake's rules (unique, unmirrored, in ``[0,1]²``); ``texture`` reports mirrored, stacked,
+        tiled and palette shells as intentional features and only folds, UV-degenerate faces
+        inside a shell and missing / non-finite UVs as problems. ``ok`` is the
+        :func:`~neuraluv.layout.validate.validate_facts` verdict of the same purpose (padding aside).
 
     Returns
     -------
@@ -164,6 +182,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
     >>> [p["kind"] for p in d.problems]              # the fold also lays triangles over their neighbours
     ['folded_faces', 'self_overlap']
     """
+    purpose = check_purpose(purpose)
     F = np.asarray(F, np.int64)
     FUV = F if FUV is None else np.asarray(FUV, np.int64)
     f = facts if facts is not None else layout_facts(V, F, UV, FUV)
@@ -172,14 +191,9 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
     FU = f.FUV
     problems, warnings = [], []
     args = (V, F, UVf, FU)
-    if f.missing.any():
-        problems.append(_problem("missing_uv", f"{int(f.missing.sum()):,} faces without texture coordinates",
-                                 "give them new charts (solved, at the layout's median texel density, placed in free space)",
-                                 np.flatnonzero(f.missing), *args))
-    if f.non_finite.any():
-        problems.append(_problem("non_finite_uv", f"{int(f.non_finite.sum()):,} faces with NaN or infinite texture coordinates",
-                                 "give them new charts (solved, at the layout's median texel density, placed in free space)",
-                                 np.flatnonzero(f.non_finite), *args))
+    if purpose == "texture":
+        return _diagnose_texture(f, V, F, resolution, padding)
+    problems = _lost_faces(f, args)
     ii, jj, area = f.overlaps()
     li, lj = f.label[ii], f.label[jj]
     same = li == lj
@@ -254,4 +268,114 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         warnings.append({"kind": "texel_density", "message": f"texel density varies {max(dens) / min(dens):.1f}× "
                          "between islands", "action": "left as is (repair keeps each island's density)"})
     return UVDiagnosis(faces=int(len(F)), islands=islands, problems=problems, warnings=warnings, validation=val,
-                       resolution=int(resolution), padding=float(padding))
+                       resolution=int(resolution), padding=float(padding), purpose=purpose)
+
+
+def _lost_faces(f, args):
+    """The problems of faces without usable UVs (every purpose)."""
+    out = []
+    if f.missing.any():
+        out.append(_problem("missing_uv", f"{int(f.missing.sum()):,} faces without texture coordinates",
+                            "give them new charts (solved, at the layout's median texel density, placed in free space)",
+                            np.flatnonzero(f.missing), *args))
+    if f.non_finite.any():
+        out.append(_problem("non_finite_uv", f"{int(f.non_finite.sum()):,} faces with NaN or infinite texture coordinates",
+                            "give them new charts (solved, at the layout's median texel density, placed in free space)",
+                            np.flatnonzero(f.non_finite), *args))
+    return out
+
+
+def _tiles(lo, hi):
+    """The unit tiles ``(i, j)`` an island's UV box covers."""
+    a, b = np.floor(lo).astype(int), np.ceil(hi).astype(int) - 1
+    b = np.maximum(a, b)
+    return [(int(i), int(j)) for i in range(a[0], b[0] + 1) for j in range(a[1], b[1] + 1)]
+
+
+def _diagnose_texture(f, V, F, resolution, padding):
+    """:func:`diagnose_layout` under the ``texture`` purpose (see :mod:`~neuraluv.layout.purpose`)."""
+    it = layout_intent(f, "texture")
+    UVf, FU = f.UV, f.FUV
+    args = (V, F, UVf, FU)
+    problems = _lost_faces(f, args)
+    features, warnings, islands = [], [], []
+    bad = it.fold | it.degenerate
+    ii, jj, area = f.overlaps()
+    li, lj = f.label[ii], f.label[jj]
+    tiles_of = {}
+    for i in range(f.n_islands):
+        fi = f.island_faces(i)
+        pts = UVf[np.unique(FU[fi])]
+        lo, hi = pts.min(0), pts.max(0)
+        outside = bool(lo.min() < 0.0 or hi.max() > 1.0)
+        dens = f.density[i]
+        mir = it.mirrored_shell[fi]
+        islands.append({"island": i, "faces": int(len(fi)), "uv_box": [lo.tolist(), hi.tolist()],
+                        "texel_density": None if not np.isfinite(dens) else float(dens),
+                        "shells": int(len(np.unique(it.shell[fi][it.shell[fi] >= 0]))),
+                        "mirrored_faces": int(mir.sum()), "folded": int(it.fold[fi].sum()),
+                        "degenerate": int(it.degenerate[fi].sum()), "palette": int(it.palette[fi].sum()),
+                        "outside_unit_square": outside})
+        if outside:
+            tiles_of[i] = _tiles(lo, hi)
+        b = fi[bad[fi]]
+        if len(b):
+            cl = face_clusters(FU, b)
+            nf, nd = int(it.fold[fi].sum()), int(it.degenerate[fi].sum())
+            what = " and ".join(x for x in ((f"{nf:,} folded" if nf else ""), (f"{nd:,} UV-degenerate" if nd else "")) if x)
+            problems.append(_problem("folded_faces", f"{what} faces inside a shell, in {len(cl)} cluster"
+                                     + ("s" if len(cl) != 1 else "") + f" (largest {len(cl[0]):,} faces)",
+                                     "untangle each cluster locally in its shell, growing rings until it is valid; every "
+                                     "other UV stays bit-identical", b, *args, island=i, clusters=[len(c) for c in cl]))
+        if mir.any():
+            whole = bool(mir.sum() == (~f.degenerate3d[fi]).sum())
+            features.append(_problem("mirrored", ("island mirrored as a whole" if whole else "mirrored shell stacked in "
+                                     "the island") + f": {int(mir.sum()):,} of {len(fi):,} faces reversed in UV",
+                                     "kept (a mirrored copy or a reversed winding reads the texture mirrored, on purpose)",
+                                     fi[mir], *args, island=i))
+        pal = fi[it.palette[fi]]
+        if len(pal):
+            P = UVf[np.unique(FU[pal])]
+            how = "one point" if np.ptp(P, axis=0).max() <= 1e-12 * max(1.0, np.abs(P).max()) else "a line"
+            features.append(_problem("palette", f"{len(pal):,} faces collapsed to {how} (a palette or flat colour)",
+                                     "kept", pal, *args, island=i))
+    # islands sharing texels: connected groups of the island-overlap graph (stacked or overlapping on purpose)
+    cross = li != lj
+    if cross.any():
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        n = f.n_islands
+        g = coo_matrix((np.ones(int(cross.sum())), (li[cross], lj[cross])), shape=(n, n))
+        _, comp = connected_components(g, directed=False)
+        involved = np.unique(np.r_[li[cross], lj[cross]])
+        for c in np.unique(comp[involved]):
+            members = np.flatnonzero(comp == c)
+            sel = cross & np.isin(li, members)
+            features.append(_problem("shared_texels", f"{len(members)} islands share texels (stacked or overlapping, "
+                                     f"area {area[sel].sum():.3g})", "kept (they read the same part of the texture)",
+                                     np.unique(np.r_[ii[sel], jj[sel]]), *args, islands=members.tolist()))
+    same = (li == lj) & ~bad[ii] & ~bad[jj]
+    for i in np.unique(li[same]):
+        sel = same & (li == i)
+        features.append(_problem("shared_texels", f"island overlaps itself outside its folds ({int(sel.sum()):,} "
+                                 f"triangle pairs, area {area[sel].sum():.3g})", "kept",
+                                 np.unique(np.r_[ii[sel], jj[sel]]), *args, island=int(i)))
+    if tiles_of:
+        allt = sorted({t for ts in tiles_of.values() for t in ts})
+        udim = all(0 <= a < 10 and b >= 0 for a, b in allt) and all(len(ts) == 1 for ts in tiles_of.values())
+        names = ", ".join(str(1001 + a + 10 * b) for a, b in allt[:12]) if udim else \
+            ", ".join(f"[{a}, {a + 1}]×[{b}, {b + 1}]" for a, b in allt[:6])
+        many = sum(len(ts) > 1 for ts in tiles_of.values())
+        faces = np.concatenate([f.island_faces(i) for i in tiles_of])
+        features.append(_problem("tiles", f"{len(tiles_of):,} islands outside [0,1]²: "
+                                 + (f"unit tiles {names} (UDIM numbering)" if udim else f"tiles {names}" + (" …" if len(allt) > 6 else ""))
+                                 + (f"; {many} repeat across tiles" if many else ""),
+                                 "kept (a repeating sampler or UDIM tiles read them)", faces, *args,
+                                 islands=sorted(tiles_of)))
+    if f.degenerate3d.any():
+        warnings.append({"kind": "zero_area_faces", "message": f"{int(f.degenerate3d.sum()):,} faces have no 3D area "
+                         "(distortion is undefined there)", "action": "their UVs are left as they are"})
+    val = validate_facts(f, purpose="texture")
+    return UVDiagnosis(faces=int(len(F)), islands=islands, problems=problems, warnings=warnings, validation=val,
+                       resolution=int(resolution), padding=float(padding), purpose="texture", features=features)

@@ -46,19 +46,24 @@ RING_SCHEDULE = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
 
 
 class IslandGraph:
-    """Face–row incidence of one island, for growing regions ring by ring."""
+    """Face–row incidence of one island (or shell), for growing regions ring by ring.
 
-    def __init__(self, FUV, faces, n_rows):
+    ``locked`` rows (a bool mask over all rows) are never freed: rows the island shares with faces
+    outside it (another shell stacked on it) stay where they are.
+    """
+
+    def __init__(self, FUV, faces, n_rows, locked=None):
         self.faces = np.asarray(faces, np.int64)
         T = np.asarray(FUV, np.int64)[self.faces]
         self.M = sp.csr_matrix((np.ones(T.size), (np.repeat(np.arange(len(T)), 3), T.reshape(-1))),
                                shape=(len(T), n_rows))
         self.MT = self.M.T.tocsr()
+        self.locked = np.zeros(n_rows, bool) if locked is None else np.asarray(locked, bool)
 
     def grow(self, rows_mask):
-        """Rows of every island face touching ``rows_mask``."""
+        """Rows of every island face touching ``rows_mask`` (locked rows excepted)."""
         f = (self.M @ rows_mask.astype(float)) > 0
-        return (self.MT @ f.astype(float)) > 0
+        return ((self.MT @ f.astype(float)) > 0) & ~self.locked
 
     def faces_touching(self, rows_mask):
         """Island faces (global indices) with a corner in ``rows_mask``."""
@@ -255,6 +260,10 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     island = graph.faces
     seed_rows = np.zeros(n_rows, bool)
     seed_rows[np.unique(FUV[cluster])] = True
+    seed_rows &= ~graph.locked
+    if not seed_rows.any():
+        return None, {"step": "escalate", "reason": "every row of the cluster is shared with another shell",
+                      "tried": [], "time": time.perf_counter() - t0}
 
     def local_scale(rows):
         """Texel density of the region and two rings around it: a layout's density may vary over an island

@@ -39,6 +39,7 @@ from neuraluv.io import jsonable
 from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs, triangles_union
 from neuraluv.layout.pack import shelf_pack
+from neuraluv.layout.purpose import check_purpose, layout_intent
 from neuraluv.layout.place import FreeSpace
 from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box
 from neuraluv.meshfix import face_areas
@@ -101,10 +102,22 @@ class RepairResult:
     def summary(self):
         """One line for the command line."""
         a, b = self.before.validation, self.after.validation
+        if self.unchanged and self.before.ok:
+            return (f"nothing to repair under the {self.before.purpose} purpose: the layout is valid and was left "
+                    "byte-identical")
         if self.unchanged:
-            return "nothing to repair: the layout is valid and was left byte-identical"
+            return (f"could not repair under the {self.before.purpose} purpose: {len(self.before.problems)} problem(s) "
+                    "left as they were (see the report's actions); the layout was left byte-identical")
         ch = [i for i in self.islands if i["actions"]]
         bit = 1.0 - self.changed_faces.mean() if len(self.changed_faces) else 1.0
+        if b.get("purpose") == "texture":
+            return (f"{len(ch)} of {len(self.islands)} islands changed"
+                    + (f", {len(self.new_charts)} new charts" if self.new_charts else "")
+                    + f"; faces bit-identical {100 * bit:.1f}%; folded faces {a['folded_faces']} -> "
+                    f"{b['folded_faces']}, UV-degenerate {a['degenerate_faces']} -> {b['degenerate_faces']}, "
+                    f"faces without usable UVs {a['faces'] - a['covered_faces'] + a['non_finite_faces']} -> "
+                    f"{b['faces'] - b['covered_faces'] + b['non_finite_faces']} (texture purpose: mirrored, "
+                    f"stacked, tiled and palette shells kept); {self.time:.1f}s")
         return (f"{len(ch)} of {len(self.islands)} islands changed"
                 + (f", {len(self.new_charts)} new charts" if self.new_charts else "")
                 + f"; faces bit-identical {100 * bit:.1f}%; flips {a['flips']} -> {b['flips']}, "
@@ -161,7 +174,7 @@ def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadli
 
 
 def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", threads=None, resolution=1024,
-                  padding=2.0, time_budget=None, neural=True, **overrides):
+                  padding=2.0, time_budget=None, neural=True, purpose="bake", **overrides):
     """Repair a supplied UV layout, changing only what is broken.
 
     Parameters
@@ -183,6 +196,14 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         Seconds after which running neural solves stop with their best valid map.
     neural : bool
         Allow the neural solver (local step 2 and whole-island re-solves).
+    purpose : {"bake", "lightmap", "texture"}
+        What the layout is for (:mod:`~neuraluv.layout.purpose`). ``bake`` / ``lightmap``: the
+        steps above, to a unique, unmirrored layout in ``[0,1]²``. ``texture``: only the folds
+        and UV-degenerate faces inside each shell are untangled, locally, in the shell's own
+        orientation (a mirrored shell stays mirrored; rows a shell shares with another shell
+        stacked on it stay where they are), and faces without usable UVs get new charts placed
+        in free space; mirrored, stacked, tiled and palette shells are not touched, nothing is
+        moved or repacked, and a layout with only those comes back unchanged.
     **overrides
         :class:`~neuraluv.solver.config.SolverConfig` fields for the neural steps.
 
@@ -213,8 +234,9 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     if FUV.shape != F.shape:
         raise NeuralUVError(f"texture indices have shape {FUV.shape}, faces {F.shape}")
     cfg = get_config(preset, **overrides)
+    purpose = check_purpose(purpose)
     facts = layout_facts(V, F, UV, FUV)
-    before = diagnose_layout(V, F, UV, FUV, resolution=resolution, padding=padding, facts=facts)
+    before = diagnose_layout(V, F, UV, FUV, resolution=resolution, padding=padding, facts=facts, purpose=purpose)
     p_in = len(UV)
     if before.ok:
         after = before
@@ -232,51 +254,12 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     movers_pref = set()  # islands (input labels) already changed: first choice when something must move
 
     with torch_threads(threads):
-        # an island's rows are its own: until it is changed, its det J and self-overlaps are the facts'
-        ii, jj, _ = facts.overlaps()
-        same = facts.label[ii] == facts.label[jj]
-        over_faces = np.concatenate([ii[same], jj[same]])
-        over_label = facts.label[over_faces]
-        for i in range(facts.n_islands):
-            fi = facts.island_faces(i)
-            dens = facts.density[i] if np.isfinite(facts.density[i]) else med
-            if facts.mirrored[i]:  # 1. mirrored: reflect back about the island's centre
-                rows = np.unique(FUVw[fi])
-                cx = 0.5 * (UVw[rows, 0].min() + UVw[rows, 0].max())
-                UVw[rows, 0] = 2.0 * cx - UVw[rows, 0]
-                actions[i].append({"step": "reflected", "rows": int(len(rows))})
-                movers_pref.add(i)
-                det = _dets(Vn, F, UVw, FUVw, fi)
-                over = _self_overlap_faces(UVw, FUVw, fi, det)
-            else:
-                det = facts.det[fi]
-                over = np.unique(over_faces[over_label == i])
-            # 2./3. folds and self-overlaps, locally
-            bad = fi[~(det > 0) & ~facts.degenerate3d[fi]]
-            targets = np.unique(np.concatenate([bad, over]))
-            if not len(targets):
-                continue
-            targets = _with_stretched_neighbours(Vn, F, UVw, FUVw, fi, targets)
-            graph = IslandGraph(FUVw, fi, len(UVw))
-            escalate = False
-            for cl in face_clusters(FUVw, targets):
-                det_cl = _dets(Vn, F, UVw, FUVw, cl)
-                if (det_cl > 0).all() and not len(_self_overlap_faces(UVw, FUVw, fi, _dets(Vn, F, UVw, FUVw, fi), cl)):
-                    continue  # fixed by an earlier cluster's region
-                out, info = repair_cluster(Vn, F, UVw, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
-                                           deadline=deadline, neural=neural)
-                if out is None:
-                    escalate = True
-                    break
-                UVw = out
-                actions[i].append({k: info[k] for k in ("step", "rings", "extra_rings", "region_faces", "free_rows") if k in info}
-                                  | {"cluster_faces": int(len(cl)), "time": info["time"]})
-                movers_pref.add(i)
-            if escalate:
-                UVw, FUVw, act = _whole_island(Vn, F, UVw, FUVw, fi, dens, cfg, neural=neural, seed=seed, device=device,
-                                               deadline=deadline)
-                actions[i].append(act)
-                movers_pref.add(i)
+        if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
+            UVw = _repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
+                                 deadline=deadline, neural=neural)
+        else:
+            UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, seed=seed,
+                                        device=device, deadline=deadline, neural=neural)
         # 4. faces without usable UVs: new charts
         new_charts = []
         lost = np.flatnonzero(facts.missing | facts.non_finite)
@@ -284,12 +267,13 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
             UVw, FUVw, new_charts = _new_charts(Vn, F, UVw, FUVw, lost, med, cfg, seed=seed, device=device,
                                                 deadline=deadline)
     # 5. overlaps between islands, out of the square, new islands: move the fewest
-    UVw, FUVw, placements, repacked = _separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding)
+    UVw, FUVw, placements, repacked = _separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding,
+                                                only_new=purpose == "texture")
     for i, pl in placements.items():
         if i >= 0:
             actions[i].append(pl)
     after = diagnose_layout(V, F, UVw, FUVw, resolution=resolution, padding=padding,
-                            facts=layout_facts(Vn, F, UVw, FUVw, normalized=True))
+                            facts=layout_facts(Vn, F, UVw, FUVw, normalized=True), purpose=purpose)
     changed_rows = np.ones(len(UVw), bool)
     changed_rows[:p_in] = ~_same_bits(UVw[:p_in], UV)
     changed_faces = (FUVw != FUV).any(1) | changed_rows[FUVw].any(1)
@@ -316,9 +300,124 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                         UV_in=UV, FUV_in=FUV)
 
 
+def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, seed, device, deadline, neural):
+    """Steps 1-3 under a bake's rules: mirrored islands reflected back, folds and self-overlaps repaired locally
+    (else the whole island untangled, else re-solved). Returns ``UV, FUV``; ``actions`` and ``movers_pref`` are
+    filled in."""
+    # an island's rows are its own: until it is changed, its det J and self-overlaps are the facts'
+    ii, jj, _ = facts.overlaps()
+    same = facts.label[ii] == facts.label[jj]
+    over_faces = np.concatenate([ii[same], jj[same]])
+    over_label = facts.label[over_faces]
+    for i in range(facts.n_islands):
+        fi = facts.island_faces(i)
+        dens = facts.density[i] if np.isfinite(facts.density[i]) else med
+        if facts.mirrored[i]:  # 1. mirrored: reflect back about the island's centre
+            rows = np.unique(FUVw[fi])
+            cx = 0.5 * (UVw[rows, 0].min() + UVw[rows, 0].max())
+            UVw[rows, 0] = 2.0 * cx - UVw[rows, 0]
+            actions[i].append({"step": "reflected", "rows": int(len(rows))})
+            movers_pref.add(i)
+            det = _dets(Vn, F, UVw, FUVw, fi)
+            over = _self_overlap_faces(UVw, FUVw, fi, det)
+        else:
+            det = facts.det[fi]
+            over = np.unique(over_faces[over_label == i])
+        # 2./3. folds and self-overlaps, locally
+        bad = fi[~(det > 0) & ~facts.degenerate3d[fi]]
+        targets = np.unique(np.concatenate([bad, over]))
+        if not len(targets):
+            continue
+        targets = _with_stretched_neighbours(Vn, F, UVw, FUVw, fi, targets)
+        graph = IslandGraph(FUVw, fi, len(UVw))
+        escalate = False
+        for cl in face_clusters(FUVw, targets):
+            det_cl = _dets(Vn, F, UVw, FUVw, cl)
+            if (det_cl > 0).all() and not len(_self_overlap_faces(UVw, FUVw, fi, _dets(Vn, F, UVw, FUVw, fi), cl)):
+                continue  # fixed by an earlier cluster's region
+            out, info = repair_cluster(Vn, F, UVw, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
+                                       deadline=deadline, neural=neural)
+            if out is None:
+                escalate = True
+                break
+            UVw = out
+            actions[i].append({k: info[k] for k in ("step", "rings", "extra_rings", "region_faces", "free_rows") if k in info}
+                              | {"cluster_faces": int(len(cl)), "time": info["time"]})
+            movers_pref.add(i)
+        if escalate:
+            UVw, FUVw, act = _whole_island(Vn, F, UVw, FUVw, fi, dens, cfg, neural=neural, seed=seed, device=device,
+                                           deadline=deadline)
+            actions[i].append(act)
+            movers_pref.add(i)
+    return UVw, FUVw
+
+
+def _repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural):
+    """Steps 1-3 under the ``texture`` purpose: each shell's folds and UV-degenerate faces repaired locally, in
+    the shell's own orientation, with the rows it shares with other shells of its island locked.
+
+    A reversed shell is repaired on the layout negated in ``u`` (exact), then negated back, so every row
+    the repair does not free is bit-identical. A cluster no local region repairs is untangled with the
+    whole shell free (locked rows kept); one that still fails is left as it is and reported.
+    """
+    it = layout_intent(facts, "texture")
+    bad = it.fold | it.degenerate
+    n_rows = len(UVw)
+    for k in np.unique(it.shell[bad]):
+        shell = it.shell_faces(k)
+        i = int(it.shell_island[k])
+        isl = facts.island_faces(i)
+        outside = np.setdiff1d(isl, shell, assume_unique=True)
+        locked = np.zeros(n_rows, bool)
+        locked[np.unique(FUVw[outside])] = True
+        flip = it.shell_sign[k] < 0
+        work = UVw * np.array([-1.0, 1.0]) if flip else UVw
+        dens = facts.density[i] if np.isfinite(facts.density[i]) else med
+        targets = shell[bad[shell]]
+        targets = _with_stretched_neighbours(Vn, F, work, FUVw, shell, targets)
+        graph = IslandGraph(FUVw, shell, n_rows, locked=locked)
+        for cl in face_clusters(FUVw, targets):
+            if (_dets(Vn, F, work, FUVw, cl) > 0).all() and not len(
+                    _self_overlap_faces(work, FUVw, shell, _dets(Vn, F, work, FUVw, shell), cl)):
+                continue  # fixed by an earlier cluster's region
+            out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
+                                       deadline=deadline, neural=neural)
+            if out is None:
+                rows = np.setdiff1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
+                out, info = _untangle_free(Vn, F, work, FUVw, shell, rows, dens)
+            if out is None:
+                actions[i].append({"step": "left folded", "cluster_faces": int(len(cl)),
+                                   "reason": "no local region and no untangle of the whole shell was valid"})
+                continue
+            work = out
+            actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows")
+                               if kk in info} | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
+                                                 **({"mirrored_shell": True} if flip else {})})
+        UVw = work * np.array([-1.0, 1.0]) if flip else work
+    return UVw
+
+
+def _untangle_free(Vn, F, UV, FUV, faces, rows, density):
+    """Untangle ``faces`` with ``rows`` free (then polish); ``(UV, info)`` or ``(None, info)`` when not valid."""
+    t0 = time.perf_counter()
+    if not len(rows):
+        return None, {"ok": False}
+    try:
+        out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density)
+    except ValueError:
+        return None, {"ok": False}
+    if not (info["ok"] and region_overlaps(out, FUV, faces, faces) == 0):
+        return None, info
+    out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density)
+    if region_overlaps(out2, FUV, faces, faces):
+        out2 = out
+    return out2, {"step": "untangle whole shell", "free_rows": int(len(rows)), "time": time.perf_counter() - t0}
+
+
 def _island_base(isl):
     return {k: isl[k] for k in ("island", "faces", "uv_rows", "texel_density", "mirrored", "flipped", "degenerate",
-                                "self_overlap_pairs", "outside_unit_square")}
+                                "self_overlap_pairs", "outside_unit_square", "shells", "mirrored_faces", "folded",
+                                "palette") if k in isl}
 
 
 def _same_bits(A, B):
@@ -364,15 +463,9 @@ def _whole_island(Vn, F, UV, FUV, faces, density, cfg, *, neural, seed, device, 
     """Last resorts for one island: untangle it whole (free boundary), else re-solve it as a chart."""
     rows = np.unique(FUV[faces])
     t0 = time.perf_counter()
-    try:
-        out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density)
-    except ValueError:
-        out, info = UV, {"ok": False}
-    if info["ok"] and region_overlaps(out, FUV, faces, faces) == 0:
-        out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density)
-        if region_overlaps(out2, FUV, faces, faces):
-            out2 = out
-        return out2, FUV, {"step": "untangle whole island", "rows": int(len(rows)), "time": time.perf_counter() - t0}
+    out, info = _untangle_free(Vn, F, UV, FUV, faces, rows, density)
+    if out is not None:
+        return out, FUV, {"step": "untangle whole island", "rows": int(len(rows)), "time": time.perf_counter() - t0}
     pieces, routes = _resolve_island(Vn, F, UV, FUV, faces, density, cfg, seed=seed, device=device, deadline=deadline)
     UVo, FUVo = UV.copy(), FUV.copy()
     if len(pieces) == 1 and len(pieces[0][3]) == len(rows) and np.array_equal(np.sort(pieces[0][3]), rows):
@@ -409,8 +502,10 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
     return UVo, FUVo, out
 
 
-def _separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding):
+def _separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=False):
     """Move the fewest islands so that none overlaps another or leaves [0,1]²; new islands are placed too.
+
+    ``only_new``: place the new islands in free space and move nothing else (the ``texture`` purpose).
 
     ``Vn`` is the unit-box mesh. Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action},
     repacked``.
@@ -432,9 +527,9 @@ def _separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding):
     must = set()
     for j in range(f.n_islands):
         rows = np.unique(f.FUV[f.island_faces(j)])
-        if origin[j] < 0 or UV[rows].min() < 0 or UV[rows].max() > 1:
+        if origin[j] < 0 or (not only_new and (UV[rows].min() < 0 or UV[rows].max() > 1)):
             must.add(j)
-    edges = {e for e in edges if e[0] not in must and e[1] not in must}
+    edges = set() if only_new else {e for e in edges if e[0] not in must and e[1] not in must}
     movers = set(must)
     while edges:
         deg = {}
