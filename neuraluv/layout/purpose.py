@@ -40,11 +40,12 @@ Definitions (on the unit-box mesh):
   along edges to the other orientation folds over it. In an island with a
   stacked copy, two faces of one sheet on one ``vt`` edge that overlap are folds
   too (a fold next to the seam joins the other layer's sheet);
-* a sheet of UV-degenerate faces, or of faces thinner than :data:`LINE_ASPECT`
-  of their length together, is a **palette collapse** when its island has no
-  other faces or it has an interior ``vt`` row (one all of whose faces are in
-  the sheet: a region was collapsed, not one face); otherwise its faces are
-  **degenerate faces** inside a shell (a problem).
+* a sheet of two or more faces whose UV points lie thinner than
+  :data:`LINE_ASPECT` of their length is a **palette collapse** along a line; a
+  sheet of UV-degenerate faces is one when its island has no other faces or it
+  has an interior ``vt`` row (one all of whose faces are in the sheet: a region
+  was collapsed, not one face); otherwise its faces are **degenerate faces**
+  inside a shell (a problem).
 
 Limits, measured: on 114 layouts damaged by ``neuraluv_paper.damage`` (local
 folds and vertex noise on eight real assets), every face the damage reversed is
