@@ -5,7 +5,7 @@ import pytest
 
 from neuraluv import datasets
 from neuraluv.errors import MeshLoadError
-from neuraluv.io import load_mesh, read_obj, write_obj
+from neuraluv.io import load_mesh, patch_obj, read_obj, write_obj
 
 from conftest import write_mesh
 
@@ -102,3 +102,22 @@ def test_atomic_write_removes_what_a_killed_write_left(tmp_path):
         fh.write("whole")
     assert out.read_text() == "whole"
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["mesh.obj", other.name])
+
+
+def test_patch_obj_defines_new_rows_above_their_first_use(tmp_path):
+    # vt rows interleaved with faces (as exporters write one object after another): a new row used by the first
+    # object's faces must be defined above them, and the second object's rows, now further down, renumbered
+    src = tmp_path / "a.obj"
+    src.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                   "vt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n"
+                   "vt 0.5 0.5\nvt 0.9 0.5\nvt 0.5 0.9\nf 2/4 4/5 3/6\n")
+    V, F, UV, FUV = read_obj(src)
+    UV2 = np.vstack([UV, [[0.2, 0.2], [0.3, 0.2], [0.2, 0.3]]])
+    FUV2 = FUV.copy()
+    FUV2[0] = [6, 7, 8]  # the first face gets new rows
+    info = patch_obj(src, tmp_path / "b.obj", UV2, FUV2)
+    V3, F3, UV3, FUV3 = read_obj(tmp_path / "b.obj")  # the strict reader: every row defined above its use
+    assert info["vt_lines_added"] == 3
+    assert np.array_equal(F3, F) and np.array_equal(UV3[FUV3], UV2[FUV2])
+    lines = (tmp_path / "b.obj").read_text().splitlines()
+    assert lines[:7] == src.read_text().splitlines()[:7]  # untouched above the insertion point

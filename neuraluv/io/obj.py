@@ -231,8 +231,11 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     Every line of ``src`` is kept byte for byte — comments, groups, materials,
     normals, vertex lines — except the ``vt`` lines whose value changed and the
     ``f`` lines whose ``vt`` indices changed; new ``vt`` rows are inserted after
-    the last ``vt`` line (before the first face when there is none). Written
-    atomically.
+    the last ``vt`` line (before the first face when there is none), or before
+    the first face that uses one when that comes earlier — then the face lines
+    below that refer to the ``vt`` rows defined after the insertion point are
+    rewritten with their shifted indices (an OBJ row must be defined above its
+    first use). Written atomically.
 
     Parameters
     ----------
@@ -296,15 +299,23 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
         bom = "\ufeff" if L == 0 and raw[0].startswith("\ufeff") else ""
         new_line[L] = f"{bom}vt {float(UV[r, 0])!r} {float(UV[r, 1])!r}" + ending(L)
     face_changed = (FUV != FUV0).any(1)
+    added = len(UV) - p0
     if len(notes["vt_line"]):
         insert_at = int(notes["vt_line"][-1]) + 1
     elif len(notes["face_line"]):
         insert_at = int(notes["face_line"][0])
     else:
         insert_at = len(raw)
-    added = len(UV) - p0
+    uses_new = (FUV >= p0).any(1)
+    if added and uses_new.any():  # a row must be defined above the first face that uses it
+        insert_at = min(insert_at, int(notes["face_line"][uses_new].min()))
+    # rows defined after the insertion point move down by the rows added there
+    n_before = int(np.searchsorted(np.asarray(notes["vt_line"]), insert_at)) if p0 else 0
+    index = np.r_[np.arange(n_before), np.arange(n_before, p0) + added, n_before + np.arange(added)] + 1
     lines_to_rewrite = set(notes["face_line"][face_changed].tolist())
     if added:
+        shifted = ((FUV >= n_before) & (FUV < p0)).any(1)
+        lines_to_rewrite |= set(notes["face_line"][shifted & (notes["face_line"] >= insert_at)].tolist())
         for L in np.unique(notes["face_line"][notes["face_line"] >= insert_at]):
             toks = text(L).split("#", 1)[0].split()[1:]
             if any(len(t.split("/")) > 1 and t.split("/")[1].startswith("-") for t in toks):
@@ -332,8 +343,8 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
             if row < 0:
                 return parts[0] + ("//" + parts[2] if len(parts) > 2 and parts[2] else "")
             if len(parts) == 1:
-                return f"{parts[0]}/{row + 1}"
-            parts[1] = str(row + 1)
+                return f"{parts[0]}/{index[row]}"
+            parts[1] = str(index[row])
             return "/".join(parts)
 
         end = ending(L)

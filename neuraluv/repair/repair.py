@@ -414,6 +414,28 @@ def _untangle_free(Vn, F, UV, FUV, faces, rows, density):
     return out2, {"step": "untangle whole shell", "free_rows": int(len(rows)), "time": time.perf_counter() - t0}
 
 
+def _new_islands_in_empty_tile(UV, FUV, f, new, padding, resolution):
+    """Shelf-pack the islands ``new`` (labels of ``f``) into the first unit tile ``[k, k+1] × [0, 1]`` to the
+    right of every other island's UVs (placements keyed ``-1, -2, …``), moving no other row."""
+    others = np.setdiff1d(np.arange(f.n_islands), new)
+    used = np.unique(f.FUV[np.isin(f.label, others)]) if len(others) else np.zeros(0, np.int64)
+    k = int(np.floor(UV[used, 0].max())) + 1 if len(used) else 0
+    uvs, tris, rows_of = [], [], []
+    for j in new:
+        rows = np.unique(f.FUV[f.island_faces(j)])
+        uvs.append(rotate_to_min_box(UV[rows]))
+        tris.append(np.searchsorted(rows, f.FUV[f.island_faces(j)]))
+        rows_of.append(rows)
+    pk = shelf_pack(uvs, tris, padding=padding, resolution=resolution)
+    UVo = UV.copy()
+    placements = {}
+    for n, (rows, u) in enumerate(zip(rows_of, pk.uvs)):
+        UVo[rows] = u + [k, 0.0]
+        placements[-1 - n] = {"step": "placed in an empty tile", "tile": [k, 0], "scale": float(pk.scale),
+                              "why": "new; no free space at the layout's density among the user's islands"}
+    return UVo, FUV, placements
+
+
 def _island_base(isl):
     return {k: isl[k] for k in ("island", "faces", "uv_rows", "texel_density", "mirrored", "flipped", "degenerate",
                                 "self_overlap_pairs", "outside_unit_square", "shells", "mirrored_faces", "folded",
@@ -568,6 +590,9 @@ def _separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=F
                            "why": ("new" if origin[j] < 0 else "outside [0,1]²" if j in must else "overlap")}
     if not failed:
         return UVo, FUVo, placements, False
+    if only_new:  # the user's islands never move: the new ones go to a unit tile no island touches
+        return (*_new_islands_in_empty_tile(UV, FUV, f, [j for j in order if origin[j] < 0], padding, resolution),
+                False)
     # nothing else fits: repack every island at a common scale (reported)
     uvs, tris, parts = [], [], []
     for j in range(f.n_islands):
