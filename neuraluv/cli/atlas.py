@@ -9,6 +9,7 @@ layout); ``neuraluv atlas IN -o OUT.obj|glb`` builds a validated atlas;
 from __future__ import annotations
 
 import json
+import struct
 import sys
 from pathlib import Path
 
@@ -123,25 +124,27 @@ def _print_fallbacks(totals, args):
               f"--time-budget (0: none) solves them all")
 
 
-def _read_layout(inp):
-    """``(V, F, UV, FUV, obj_data)`` of a textured OBJ or GLB; one-line errors for everything else."""
-    from neuraluv.atlas.export import read_atlas
-    from neuraluv.io import load_mesh, read_obj
+def _read_layout(inp, uv_set=0):
+    """``(V, F, UV, FUV, data)`` of a textured OBJ (``data``: its :class:`~neuraluv.io.ObjData`) or glTF / GLB
+    (``data``: its :class:`~neuraluv.io.GltfLayout`); one-line errors for everything else."""
+    from neuraluv.io import load_mesh, read_gltf_layout, read_obj
 
     load_mesh(inp)  # one-line errors for missing, empty or garbage files
     if inp.suffix.lower() == ".obj":
+        if uv_set:
+            raise NeuralUVError("an OBJ has one set of texture coordinates (vt): --uv-set must be 0")
         data = read_obj(inp, keep_lines=True)
         V, F, UV, FUV = data
         if FUV is None or len(UV) == 0:
             raise NeuralUVError(f"{inp.name} has no per-corner texture coordinates (vt); use `neuraluv atlas` to make a layout")
         return V, F, UV, FUV, data
     try:
-        V, F, UV, FUV = read_atlas(inp)
+        lay = read_gltf_layout(inp, uv_set)
     except NeuralUVError:
         raise
-    except Exception as exc:  # noqa: BLE001 - a file trimesh cannot read: one line
-        raise NeuralUVError(f"{inp.name}: could not read texture coordinates ({type(exc).__name__})") from None
-    return V, F, UV, FUV, None
+    except (ValueError, KeyError, IndexError, TypeError, struct.error) as exc:  # malformed JSON structure: one line
+        raise NeuralUVError(f"{inp.name}: could not read texture coordinates ({type(exc).__name__}: {exc})") from None
+    return lay.V, lay.F, lay.UV, lay.FUV, lay
 
 
 def _purpose(args, inp, data):
@@ -159,21 +162,27 @@ def cmd_check_uv(args):
     from neuraluv.repair.diagnose import diagnose_layout
 
     inp, _, _ = check_paths(args.input, input_exts=(".obj", ".glb", ".gltf"))
-    V, F, UV, FUV, data = _read_layout(inp)
+    V, F, UV, FUV, data = _read_layout(inp, args.uv_set)
     purpose, why = _purpose(args, inp, data)
     d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding, purpose=purpose)
     d.info["purpose_reason"] = why
+    left_out = list(getattr(data, "skipped", []))
+    d.info["left_out"] = left_out
     if args.json:
         print(json.dumps(d.as_dict(), indent=2))
     else:
         print(f"purpose: {purpose} ({why})")
+        for line in left_out[:5]:
+            print(f"  left out: {line}")
+        if len(left_out) > 5:
+            print(f"  … and {len(left_out) - 5} more primitives left out (--json lists every one)")
         print(d.format(inp.name, limit=None if args.all else 5))
     return EXIT_OK
 
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.io import atomic_write, patch_obj, write_json
+    from neuraluv.io import GltfLayout, atomic_write, patch_obj, read_gltf_layout, write_gltf_uvs, write_json
     from neuraluv.layout.validate import validate_layout
     from neuraluv.repair.repair import repair_layout
     from neuraluv.solver.device import resolve_device
@@ -184,14 +193,28 @@ def cmd_repair(args):
         raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
     if not args.no_neural:
         resolve_device(args.device)
-    V, F, UV, FUV, data = _read_layout(inp)
+    V, F, UV, FUV, data = _read_layout(inp, args.uv_set)
     purpose, why = _purpose(args, inp, data)
     print(f"purpose: {purpose} ({why})")
+    gltf = isinstance(data, GltfLayout)
+    add = gltf and purpose != "texture" and not args.replace_uvs  # a lightmap goes to a UV set of its own
     res = repair_layout(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device, threads=args.threads,
                         resolution=args.resolution, padding=args.padding, time_budget=args.time_budget or None,
-                        neural=not args.no_neural, purpose=purpose, **_overrides(args))
-    if data is not None and out.suffix.lower() == ".obj":
+                        neural=not args.no_neural, purpose=purpose, repack=add and out.suffix.lower() == ".glb",
+                        **_overrides(args))
+    read_set = args.uv_set
+    if data is not None and not gltf and out.suffix.lower() == ".obj":
         written = patch_obj(inp, out, res.UV, res.FUV, data=data)  # every other line of the input kept byte for byte
+    elif gltf and out.suffix.lower() == ".glb" and (add or not res.unchanged):
+        try:  # every byte but the UV set kept: nodes, transforms, normals, materials, other UV sets
+            written = write_gltf_uvs(data, res.UV, res.FUV, out, mode="add" if add else "replace")
+        except NeuralUVError as exc:
+            raise NeuralUVError(f"{inp.name}: {exc}") from None
+        sets = sorted(set(written["texcoord"]))
+        read_set = sets[0]
+        if len(sets) > 1:
+            print(f"  note: the primitives got different UV sets ({', '.join(f'TEXCOORD_{k}' for k in sets)}); "
+                  f"the read-back checks TEXCOORD_{read_set}")
     elif res.unchanged and out.suffix.lower() == inp.suffix.lower():
         with atomic_write(out, "wb") as fh:  # nothing changed: the input's bytes, not a re-export
             fh.write(inp.read_bytes())
@@ -201,11 +224,16 @@ def cmd_repair(args):
         written = {"format": out.suffix.lower()}
     # the verdict is taken on the written file, by the same purpose's rules as the check
     try:
-        V2, F2, UV2, FUV2 = read_atlas(out)
+        if gltf and out.suffix.lower() == ".glb":
+            lay2 = read_gltf_layout(out, read_set)
+            V2, F2, UV2, FUV2 = lay2.V, lay2.F, lay2.UV, lay2.FUV
+        else:
+            V2, F2, UV2, FUV2 = read_atlas(out)
     except NeuralUVError as exc:  # a written file our own reader refuses must not be left behind as a result
         out.unlink(missing_ok=True)
         raise NeuralUVError(f"the repaired file could not be read back ({exc}); nothing written") from None
-    back = validate_layout(V2, F2, UV2, FUV2, check_padding=False, purpose=purpose)
+    back = validate_layout(V2, F2, UV2, FUV2, check_padding=add, padding=args.padding, resolution=args.resolution,
+                           purpose=purpose)
     rep = res.report()
     rep["purpose"] = {"purpose": purpose, "reason": why}
     rep["written"] = written
@@ -225,6 +253,11 @@ def cmd_repair(args):
             fig.savefig(fh, format="png", dpi=110)
         plt.close(fig)
     print(f"wrote {out}: {res.summary()}")
+    if gltf and isinstance(written, dict) and "texcoord" in written:
+        print(f"  {'added' if add else 'replaced'} UV set TEXCOORD_{read_set}"
+              + (f"; TEXCOORD_{args.uv_set} untouched" if add else "")
+              + (f"; {written['primitives_split']} primitive(s) had vertices split (attributes copied)"
+                 if written["primitives_split"] else ""))
     if not back["valid"]:
         what = (f"{back['folded_faces']} folded and {back['degenerate_faces']} UV-degenerate faces inside shells, "
                 f"{back['faces'] - back['covered_faces'] + back['non_finite_faces']} faces without usable UVs"
@@ -280,6 +313,7 @@ def register(sub):
                    help="diagnose the file's UV layout instead (OBJ with vt, or GLB): flips, mirrored islands, "
                         "overlaps, missing/NaN UVs, bounds, texel density, padding; and what `repair` would do")
     _purpose_option(c, "with --uv: ")
+    c.add_argument("--uv-set", type=int, default=0, metavar="N", help="with --uv: the glTF UV set TEXCOORD_N to read (default 0)")
     c.add_argument("--resolution", type=positive_int, default=1024, help="with --uv: texture resolution (default 1024)")
     c.add_argument("--padding", type=nonneg_float, default=2.0, help="with --uv: required gap in texels (default 2)")
     c.set_defaults(func=lambda args: (cmd_check_uv if args.uv else cmd_check)(args))
@@ -314,6 +348,10 @@ def register(sub):
     r.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     r.add_argument("--padding", type=nonneg_float, default=2.0, help="gap kept around moved and new islands, in texels (default 2)")
     _purpose_option(r, "")
+    r.add_argument("--uv-set", type=int, default=0, metavar="N", help="glTF: the UV set TEXCOORD_N to repair (default 0)")
+    r.add_argument("--replace-uvs", action="store_true",
+                   help="glTF under --purpose bake/lightmap: overwrite the UV set read instead of adding the new "
+                        "layout as a UV set of its own (TEXCOORD_k, the first free k)")
     r.add_argument("--no-neural", action="store_true", help="untangle/polish/move only; islands that need a re-solve stay broken")
     _atlas_options(r)
     time_budget_option(r, 300)

@@ -3,6 +3,8 @@
 ===========  =====================================================================
 ``mesh``     :func:`load_mesh` (trimesh; libigl for ``.mesh``), :func:`check_mesh_arrays`, :func:`layout_materials`
 ``obj``      :func:`read_obj` (strict), :func:`write_obj`, :func:`patch_obj` (only changed lines)
+``gltf``     :func:`read_gltf_layout` (a UV set of every textured primitive), :func:`write_gltf_uvs` (a GLB
+             copy that differs only in that UV set, or in an added one)
 ``files``    :func:`atomic_write`, :func:`jsonable`, :func:`write_json`, :func:`write_csv`
 ===========  =====================================================================
 
@@ -20,7 +22,8 @@ MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
 #: against :data:`MESH_EXTENSIONS` without loading numpy).
 _WHERE = {"atomic_write": "files", "jsonable": "files", "write_json": "files", "write_csv": "files",
           "check_mesh_arrays": "mesh", "load_mesh": "mesh", "layout_materials": "mesh",
-          "ObjData": "obj", "read_obj": "obj", "write_obj": "obj", "patch_obj": "obj"}
+          "ObjData": "obj", "read_obj": "obj", "write_obj": "obj", "patch_obj": "obj",
+          "GltfLayout": "gltf", "read_gltf_layout": "gltf", "write_gltf_uvs": "gltf", "load_gltf": "gltf"}
 
 __all__ = ["MESH_EXTENSIONS", *_WHERE]
 

@@ -70,9 +70,16 @@ class IslandGraph:
         return self.faces[(self.M @ rows_mask.astype(float)) > 0]
 
 
-def region_overlaps(UV, FUV, region, island):
-    """Number of overlapping triangle pairs with a face in ``region`` among the ``island``'s faces (exact)."""
-    return len(overlap_pairs(UV, FUV, island, region)[0])
+def region_overlaps(UV, FUV, region, island, allowed=None):
+    """Number of overlapping triangle pairs with a face in ``region`` among the ``island``'s faces (exact).
+
+    ``allowed``: a set of face pairs ``(i, j)``, ``i < j``, that overlapped before on purpose (a texture
+    layout's shell may lie over itself); they are not counted.
+    """
+    a, b = overlap_pairs(UV, FUV, island, region)
+    if not allowed:
+        return len(a)
+    return sum((int(i), int(j)) not in allowed for i, j in zip(np.minimum(a, b), np.maximum(a, b)))
 
 
 def region_esd(Vn, F, UV, FUV, faces, scale):
@@ -214,7 +221,7 @@ def _try_neural(Vn, F, UV, FUV, region, free, scale, config, seed, device, deadl
 
 
 def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed=0, device="cpu", deadline=None,
-                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1):
+                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1, allowed=None):
     """Repair one fold cluster in the smallest region that works (see the module docstring).
 
     Parameters
@@ -246,6 +253,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         beyond by more than ``grow_gain``: rows the damage moved without folding
         are freed too, but a layout that was merely not optimal is not
         "improved" beyond its neighbourhood's quality.
+    allowed : set of (int, int), optional
+        Face pairs of the island that overlap on purpose (:func:`region_overlaps`): a repaired
+        region may keep them, but makes no other overlap.
 
     Returns
     -------
@@ -278,12 +288,12 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         region = graph.faces_touching(rows)
         sc = local_scale(rows)
         out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc)
-        ov = region_overlaps(out, FUV, region, island) if uinfo["ok"] else -1
+        ov = region_overlaps(out, FUV, region, island, allowed) if uinfo["ok"] else -1
         det = {"region": region, "free": free, "untangle": uinfo, "overlaps": ov, "scale": sc}
         if not (uinfo["ok"] and ov == 0):
             return None, det
         out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc)
-        if region_overlaps(out2, FUV, region, island):
+        if region_overlaps(out2, FUV, region, island, allowed):
             out2 = out  # the polish moved a triangle over another: keep the untangled map
         det["polish"] = pinfo
         return out2, det
@@ -360,7 +370,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         step = "untangle+polish"
         if neural and not det["polish"]["converged"] and not whole:
             out3, res = _try_neural(Vn, F, out, FUV, region, free, sc, config, seed, device, deadline)
-            if (res is not None and res.status == "neural" and region_overlaps(out3, FUV, region, island) == 0
+            if (res is not None and res.status == "neural" and region_overlaps(out3, FUV, region, island, allowed) == 0
                     and region_esd(Vn, F, out3, FUV, region, sc) < region_esd(Vn, F, out, FUV, region, sc)):
                 out, step = out3, "untangle+polish+neural"
         return out, {"step": step, "rings": r, "extra_rings": extra, "region_faces": int(len(region)),
@@ -370,10 +380,10 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         r, region, free, sc = last
         start = _tutte_inside(UV, FUV, region, free)
         if start is not None and (RegionEnergy.build(Vn, F, FUV, region, free, sc).dets(start) > 0).all() \
-                and region_overlaps(start, FUV, region, island) == 0:
+                and region_overlaps(start, FUV, region, island, allowed) == 0:
             out, res = _try_neural(Vn, F, start, FUV, region, free, sc, config, seed, device, deadline)
             out = out if (res is not None and res.status == "neural") else start
-            if region_overlaps(out, FUV, region, island) == 0:
+            if region_overlaps(out, FUV, region, island, allowed) == 0:
                 return out, {"step": "neural (ring pinned)", "rings": r, "region_faces": int(len(region)),
                              "free_rows": int(len(free)), "tried": tried, "time": time.perf_counter() - t0}
     return None, {"step": "escalate", "tried": tried, "time": time.perf_counter() - t0}

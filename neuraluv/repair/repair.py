@@ -174,7 +174,7 @@ def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadli
 
 
 def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", threads=None, resolution=1024,
-                  padding=2.0, time_budget=None, neural=True, purpose="bake", **overrides):
+                  padding=2.0, time_budget=None, neural=True, purpose="bake", repack=False, **overrides):
     """Repair a supplied UV layout, changing only what is broken.
 
     Parameters
@@ -204,6 +204,10 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         stacked on it stay where they are), and faces without usable UVs get new charts placed
         in free space; mirrored, stacked, tiled and palette shells are not touched, nothing is
         moved or repacked, and a layout with only those comes back unchanged.
+    repack : bool
+        After steps 1-4, pack every island afresh at the layout's median texel density (the tight
+        packer, ``padding`` held) instead of moving the fewest: for a layout of its own that no
+        texture reads yet, e.g. a lightmap written to a new glTF UV set. Not with ``texture``.
     **overrides
         :class:`~neuraluv.solver.config.SolverConfig` fields for the neural steps.
 
@@ -235,10 +239,12 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         raise NeuralUVError(f"texture indices have shape {FUV.shape}, faces {F.shape}")
     cfg = get_config(preset, **overrides)
     purpose = check_purpose(purpose)
+    if repack and purpose == "texture":
+        raise NeuralUVError("repack=True builds a layout of its own: use it with purpose 'bake' or 'lightmap'")
     facts = layout_facts(V, F, UV, FUV)
     before = diagnose_layout(V, F, UV, FUV, resolution=resolution, padding=padding, facts=facts, purpose=purpose)
     p_in = len(UV)
-    if before.ok:
+    if before.ok and not (repack and any(w["kind"] == "padding" for w in before.warnings)):
         after = before
         return RepairResult(V=V, F=F, UV=UV.copy(), FUV=FUV.copy(), changed_rows=np.zeros(p_in, bool),
                             changed_faces=np.zeros(len(F), bool),
@@ -255,8 +261,8 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
 
     with torch_threads(threads):
         if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
-            UVw = _repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
-                                 deadline=deadline, neural=neural)
+            UVw, FUVw = _repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
+                                       deadline=deadline, neural=neural)
         else:
             UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, seed=seed,
                                         device=device, deadline=deadline, neural=neural)
@@ -266,9 +272,19 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         if len(lost):
             UVw, FUVw, new_charts = _new_charts(Vn, F, UVw, FUVw, lost, med, cfg, seed=seed, device=device,
                                                 deadline=deadline)
-    # 5. overlaps between islands, out of the square, new islands: move the fewest
-    UVw, FUVw, placements, repacked = _separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding,
-                                                only_new=purpose == "texture")
+    # 5. overlaps between islands, out of the square, new islands: move the fewest (or pack them all afresh)
+    if repack:
+        f5 = layout_facts(Vn, F, UVw, FUVw, normalized=True)
+        UVw, FUVw = _repack_all(Vn, F, UVw, FUVw, f5, padding, resolution, tight=True)
+        placements, repacked = {}, True
+        for j in range(f5.n_islands):
+            lab0 = facts.label[f5.island_faces(j)]
+            lab0 = lab0[lab0 >= 0]
+            if len(lab0):
+                placements.setdefault(int(np.bincount(lab0).argmax()), {"step": "repacked (a layout of its own)"})
+    else:
+        UVw, FUVw, placements, repacked = _separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding,
+                                                    only_new=purpose == "texture")
     for i, pl in placements.items():
         if i >= 0:
             actions[i].append(pl)
@@ -357,47 +373,84 @@ def _repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, 
     the shell's own orientation, with the rows it shares with other shells of its island locked.
 
     A reversed shell is repaired on the layout negated in ``u`` (exact), then negated back, so every row
-    the repair does not free is bit-identical. A cluster no local region repairs is untangled with the
-    whole shell free (locked rows kept); one that still fails is left as it is and reported.
+    the repair does not free is bit-identical. Pairs of the shell's faces that overlapped on purpose may
+    stay; a repaired region makes no other overlap. A fold whose rows are all shared with another shell (a
+    fold on the seam of a stacked copy) gets copies of those rows for its own shell (same values; the other
+    shell keeps the originals) and is repaired on them. A cluster no local region repairs is untangled
+    with the whole shell free (locked rows kept); one that still fails is left as it is and reported.
+    Returns ``UV, FUV``.
     """
     it = layout_intent(facts, "texture")
     bad = it.fold | it.degenerate
-    n_rows = len(UVw)
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
         i = int(it.shell_island[k])
-        isl = facts.island_faces(i)
-        outside = np.setdiff1d(isl, shell, assume_unique=True)
-        locked = np.zeros(n_rows, bool)
+        outside = np.setdiff1d(facts.island_faces(i), shell, assume_unique=True)
+        locked = np.zeros(len(UVw), bool)
         locked[np.unique(FUVw[outside])] = True
         flip = it.shell_sign[k] < 0
         work = UVw * np.array([-1.0, 1.0]) if flip else UVw
         dens = facts.density[i] if np.isfinite(facts.density[i]) else med
         targets = shell[bad[shell]]
+        graph = IslandGraph(FUVw, shell, len(work), locked=locked)
+        allowed = _intended_overlaps(work, FUVw, shell, bad, IslandGraph(FUVw, shell, len(work)))
         targets = _with_stretched_neighbours(Vn, F, work, FUVw, shell, targets)
-        graph = IslandGraph(FUVw, shell, n_rows, locked=locked)
         for cl in face_clusters(FUVw, targets):
-            if (_dets(Vn, F, work, FUVw, cl) > 0).all() and not len(
-                    _self_overlap_faces(work, FUVw, shell, _dets(Vn, F, work, FUVw, shell), cl)):
+            if (_dets(Vn, F, work, FUVw, cl) > 0).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
                 continue  # fixed by an earlier cluster's region
-            out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
-                                       deadline=deadline, neural=neural)
+            kw = dict(config=cfg, seed=seed, device=device, deadline=deadline, neural=neural, allowed=allowed)
+            out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
+            split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
+            if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
+                new = len(work) + np.arange(len(split))
+                work = np.vstack([work, work[split]])
+                sub = FUVw[shell]
+                hit = np.isin(sub, split)
+                sub[hit] = new[np.searchsorted(split, sub[hit])]
+                FUVw = FUVw.copy()
+                FUVw[shell] = sub
+                locked = np.r_[locked, np.zeros(len(split), bool)]
+                graph = IslandGraph(FUVw, shell, len(work), locked=locked)
+                out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
+                if out is not None:
+                    info = {**info, "split_rows": int(len(split))}
             if out is None:
                 rows = np.setdiff1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
-                out, info = _untangle_free(Vn, F, work, FUVw, shell, rows, dens)
+                out, info = _untangle_free(Vn, F, work, FUVw, shell, rows, dens, allowed)
             if out is None:
                 actions[i].append({"step": "left folded", "cluster_faces": int(len(cl)),
                                    "reason": "no local region and no untangle of the whole shell was valid"})
                 continue
             work = out
-            actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows")
-                               if kk in info} | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
-                                                 **({"mirrored_shell": True} if flip else {})})
+            actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows",
+                                                      "split_rows") if kk in info}
+                              | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
+                                 **({"mirrored_shell": True} if flip else {})})
         UVw = work * np.array([-1.0, 1.0]) if flip else work
-    return UVw
+    return UVw, FUVw
 
 
-def _untangle_free(Vn, F, UV, FUV, faces, rows, density):
+def _intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
+    """Pairs of the shell's faces that overlap on purpose: a repaired region may keep them.
+
+    Two overlapping faces of which neither is broken overlap on purpose (a shell laid over itself); so do a
+    broken face and a face more than ``rings`` rings away from it (the fold lies where the shell is stacked
+    on another part of itself). A broken face over its near neighbours is the fold itself.
+    """
+    a, b = overlap_pairs(UV, FUV, shell)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    keep = ~bad[lo] & ~bad[hi]
+    for n in np.flatnonzero(~keep):
+        i, j = (lo[n], hi[n]) if bad[lo[n]] else (hi[n], lo[n])
+        near = np.zeros(graph.M.shape[1], bool)
+        near[FUV[i]] = True
+        for _ in range(rings):
+            near = graph.grow(near)
+        keep[n] = not near[FUV[j]].any()
+    return set(zip(lo[keep].tolist(), hi[keep].tolist()))
+
+
+def _untangle_free(Vn, F, UV, FUV, faces, rows, density, allowed=None):
     """Untangle ``faces`` with ``rows`` free (then polish); ``(UV, info)`` or ``(None, info)`` when not valid."""
     t0 = time.perf_counter()
     if not len(rows):
@@ -406,10 +459,10 @@ def _untangle_free(Vn, F, UV, FUV, faces, rows, density):
         out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density)
     except ValueError:
         return None, {"ok": False}
-    if not (info["ok"] and region_overlaps(out, FUV, faces, faces) == 0):
+    if not (info["ok"] and region_overlaps(out, FUV, faces, faces, allowed) == 0):
         return None, info
     out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density)
-    if region_overlaps(out2, FUV, faces, faces):
+    if region_overlaps(out2, FUV, faces, faces, allowed):
         out2 = out
     return out2, {"step": "untangle whole shell", "free_rows": int(len(rows)), "time": time.perf_counter() - t0}
 
@@ -594,21 +647,33 @@ def _separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=F
         return (*_new_islands_in_empty_tile(UV, FUV, f, [j for j in order if origin[j] < 0], padding, resolution),
                 False)
     # nothing else fits: repack every island at a common scale (reported)
+    UVr, FUVo = _repack_all(Vn, F, UV, FUVo, f, padding, resolution, tight=False)
+    placements = {int(origin[j]) if origin[j] >= 0 else -1 - j: {"step": "repacked"} for j in range(f.n_islands)}
+    return UVr, FUVo, placements, True
+
+
+def _repack_all(Vn, F, UV, FUV, f, padding, resolution, *, tight):
+    """Every island of ``f`` packed afresh (new rows appended; the old ones stay, unused): at a common scale as
+    they are (shelf packer, the fallback of :func:`_separate`), or, with ``tight``, each scaled to the
+    layout's median texel density and packed by the tight packer (a layout of its own, e.g. a lightmap)."""
+    from neuraluv.layout.pack import tight_pack
+
     uvs, tris, parts = [], [], []
+    med = f.median_density or 1.0
     for j in range(f.n_islands):
         fj = f.island_faces(j)
         rows = np.unique(f.FUV[fj])
-        uvs.append(rotate_to_min_box(UV[rows]))
+        d = f.density[j] if tight and np.isfinite(f.density[j]) else med
+        uvs.append(rotate_to_min_box(UV[rows] * (med / d)))
         tris.append(np.searchsorted(rows, f.FUV[fj]))
         parts.append(fj)
-    pk = shelf_pack(uvs, tris, padding=padding, resolution=resolution)
-    UVr = UV.copy()
-    base = len(UVr)
+    pk = tight_pack(uvs, tris, padding=padding, resolution=resolution) if tight else \
+        shelf_pack(uvs, tris, padding=padding, resolution=resolution)
+    FUVo = FUV.copy()
+    base = len(UV)
     new_rows = []
     for fj, Tl, u in zip(parts, tris, pk.uvs):
         FUVo[fj] = Tl + base
         new_rows.append(u)
         base += len(u)
-    UVr = np.vstack([UVr] + new_rows)
-    placements = {int(origin[j]) if origin[j] >= 0 else -1 - j: {"step": "repacked"} for j in range(f.n_islands)}
-    return UVr, FUVo, placements, True
+    return np.vstack([UV] + new_rows), FUVo

@@ -1,0 +1,423 @@
+"""glTF 2.0 layouts: read a UV set of every textured triangle primitive, and write a copy of the file that
+differs only in that UV set (or in an added one).
+
+:func:`read_gltf_layout` gathers the primitives of a ``.glb`` / ``.gltf`` file that
+have the asked-for ``TEXCOORD_n``: positions in world coordinates (the first node
+that instances the mesh; distortion needs consistent scale), triangles (strips and
+fans unrolled), and the texture coordinates with ``v`` flipped to the OBJ
+convention (glTF's origin is the image's top-left corner). Primitives without
+that UV set, points and lines are left out and listed.
+
+:func:`write_gltf_uvs` writes the binary glTF (GLB) back: every byte of the
+input — nodes, transforms, normals, materials, images, skins, other UV sets,
+extensions — is kept. Under ``mode="replace"`` only the changed rows of the
+UV accessors are overwritten in place (float accessors; a normalized integer
+accessor is replaced by a float one). Under ``mode="add"`` each primitive gets a
+new UV set (``TEXCOORD_k``, the first unused ``k``), leaving the others alone.
+When the new layout splits a vertex (one vertex, two UVs), the primitive's
+vertex attributes are gathered onto the split vertices in new accessors (the
+values are copied, not changed).
+
+Nothing here changes a file's meaning beyond the UVs: it is the GLB
+counterpart of :func:`~neuraluv.io.obj.patch_obj`.
+"""
+from __future__ import annotations
+
+import json
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from neuraluv.errors import NeuralUVError
+from neuraluv.io.files import atomic_write
+
+__all__ = ["GltfLayout", "read_gltf_layout", "write_gltf_uvs", "load_gltf"]
+
+_DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+_GLB_MAGIC, _JSON, _BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
+
+
+@dataclass
+class _Doc:
+    path: Path
+    json: dict
+    buffers: list  # bytearray per buffer (the GLB's BIN chunk is buffer 0)
+    glb: bool
+    json_chunk: bytes = b""  # the JSON chunk as read: written back unchanged when the JSON did not change
+
+
+def load_gltf(path):
+    """The JSON and the buffers of a ``.glb`` or ``.gltf`` file (one-line errors for what is not glTF 2.0)."""
+    path = Path(path)
+    raw = path.read_bytes()
+    if raw[:4] == b"glTF":
+        if len(raw) < 20:
+            raise NeuralUVError(f"{path.name}: truncated GLB header")
+        _, version, length = struct.unpack("<4sII", raw[:12])
+        if version != 2:
+            raise NeuralUVError(f"{path.name}: GLB version {version}, need 2")
+        pos, doc, bin_chunk = 12, None, None
+        while pos + 8 <= min(length, len(raw)):
+            clen, ctype = struct.unpack("<II", raw[pos:pos + 8])
+            body = raw[pos + 8:pos + 8 + clen]
+            if ctype == _JSON and doc is None:
+                doc = json.loads(body.decode("utf-8"))
+                json_chunk = bytes(body)
+            elif ctype == _BIN and bin_chunk is None:
+                bin_chunk = bytearray(body)
+            pos += 8 + clen
+        if doc is None:
+            raise NeuralUVError(f"{path.name}: GLB without a JSON chunk")
+        buffers = []
+        for i, b in enumerate(doc.get("buffers", [])):
+            if "uri" not in b and i == 0:
+                buffers.append(bin_chunk if bin_chunk is not None else bytearray())
+            else:
+                buffers.append(_external(path, b))
+        return _Doc(path, doc, buffers, True, json_chunk)
+    try:
+        doc = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError):
+        raise NeuralUVError(f"{path.name}: neither a GLB nor glTF JSON") from None
+    return _Doc(path, doc, [_external(path, b) for b in doc.get("buffers", [])], False)
+
+
+def _external(path, b):
+    import base64
+    from urllib.parse import unquote
+
+    uri = b.get("uri", "")
+    if uri.startswith("data:"):
+        return bytearray(base64.b64decode(uri.split(",", 1)[1]))
+    p = path.parent / unquote(uri)
+    if not p.is_file():
+        raise NeuralUVError(f"{path.name}: buffer {uri!r} not found beside it")
+    return bytearray(p.read_bytes())
+
+
+def _accessor(doc, i, *, raw=False):
+    """Accessor ``i`` as an array (count, width); normalized integers as floats unless ``raw``."""
+    a = doc.json["accessors"][i]
+    dt = np.dtype(_DTYPE[a["componentType"]]).newbyteorder("<")
+    w = _WIDTH[a["type"]]
+    n = int(a["count"])
+    if "sparse" in a:
+        raise NeuralUVError(f"{doc.path.name}: accessor {i} is sparse (not supported)")
+    if "bufferView" not in a:
+        out = np.zeros((n, w), dt)
+    else:
+        bv = doc.json["bufferViews"][a["bufferView"]]
+        buf = doc.buffers[bv["buffer"]]
+        start = bv.get("byteOffset", 0) + a.get("byteOffset", 0)
+        stride = bv.get("byteStride") or dt.itemsize * w
+        if n and start + stride * (n - 1) + dt.itemsize * w > len(buf):
+            raise NeuralUVError(f"{doc.path.name}: accessor {i} runs past its buffer")
+        out = np.ndarray((n, w), dt, buffer=bytes(buf), offset=start, strides=(stride, dt.itemsize)).copy()
+    if raw or not a.get("normalized", False):
+        return out
+    return np.maximum(out.astype(float) / np.iinfo(dt).max, -1.0)
+
+
+def _world_matrices(doc):
+    """The world matrix of the first node that instances each mesh (identity for meshes in no node)."""
+    nodes = doc.json.get("nodes", [])
+    scenes = doc.json.get("scenes", [])
+    roots = scenes[doc.json.get("scene", 0)].get("nodes", []) if scenes else \
+        sorted(set(range(len(nodes))) - {c for n in nodes for c in n.get("children", [])})
+    out = {}
+    stack = [(r, np.eye(4)) for r in reversed(roots)]
+    seen = set()
+    while stack:
+        k, parent = stack.pop()
+        if k in seen or k >= len(nodes):  # a cycle or a dangling index: the file is not a tree
+            continue
+        seen.add(k)
+        n = nodes[k]
+        if "matrix" in n:
+            M = np.asarray(n["matrix"], float).reshape(4, 4).T
+        else:
+            t = np.asarray(n.get("translation", [0, 0, 0]), float)
+            x, y, z, w = n.get("rotation", [0, 0, 0, 1])
+            R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                          [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                          [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+            M = np.eye(4)
+            M[:3, :3] = R * np.asarray(n.get("scale", [1, 1, 1]), float)[None, :]
+            M[:3, 3] = t
+        W = parent @ M
+        if "mesh" in n and n["mesh"] not in out:
+            out[n["mesh"]] = W
+        for c in reversed(n.get("children", [])):
+            stack.append((c, W))
+    return out
+
+
+def _triangles(idx, mode):
+    """Triangle index rows of a primitive's index list under its mode (4 list, 5 strip, 6 fan)."""
+    idx = np.asarray(idx, np.int64).reshape(-1)
+    if mode == 4:
+        return idx[: len(idx) // 3 * 3].reshape(-1, 3)
+    if len(idx) < 3:
+        return np.zeros((0, 3), np.int64)
+    k = np.arange(len(idx) - 2)
+    if mode == 5:  # strip: every other triangle's first two corners swap, to keep the winding
+        a, b = np.where(k % 2 == 0, idx[k], idx[k + 1]), np.where(k % 2 == 0, idx[k + 1], idx[k])
+        return np.stack([a, b, idx[k + 2]], 1)
+    return np.stack([np.full(len(k), idx[0]), idx[k + 1], idx[k + 2]], 1)  # fan
+
+
+@dataclass
+class GltfLayout:
+    """A glTF file's UV layout over its textured triangle primitives (:func:`read_gltf_layout`).
+
+    Attributes
+    ----------
+    V : (n,3) float array, world positions (one row per vertex of each read primitive).
+    F : (m,3) int array; UV : (n,2) float array, ``v`` flipped to the OBJ convention; FUV : (m,3) = ``F``.
+    blocks : list of dict, one per primitive read: ``mesh``, ``primitive``, ``uv_accessor``, ``rows`` (first row,
+        count), ``faces`` (first face, count), ``mode``, ``indices`` (the primitive's triangle rows, local).
+    skipped : list of str, primitives left out and why.
+    texcoord : int, the UV set read.
+    materials, textures : int, counts in the file.
+    """
+
+    V: np.ndarray
+    F: np.ndarray
+    UV: np.ndarray
+    FUV: np.ndarray
+    blocks: list
+    skipped: list
+    texcoord: int
+    doc: object = field(repr=False, default=None)
+    materials: int = 0
+    textures: int = 0
+
+
+def read_gltf_layout(path, texcoord=0):
+    """Read the ``TEXCOORD_<texcoord>`` layout of every triangle primitive of a glTF / GLB file.
+
+    Parameters
+    ----------
+    path : str or Path
+    texcoord : int
+
+    Returns
+    -------
+    GltfLayout
+
+    Raises
+    ------
+    NeuralUVError
+        Not glTF 2.0, or no primitive has that UV set.
+    """
+    doc = load_gltf(path)
+    world = _world_matrices(doc)
+    Vs, Fs, Us, blocks, skipped = [], [], [], [], []
+    rows = faces = 0
+    done = {}
+    name = f"TEXCOORD_{int(texcoord)}"
+    for mi, mesh in enumerate(doc.json.get("meshes", [])):
+        for pi, prim in enumerate(mesh.get("primitives", [])):
+            mode = prim.get("mode", 4)
+            attrs = prim.get("attributes", {})
+            where = f"mesh {mi} ({mesh.get('name', '')!s}) primitive {pi}"
+            if mode not in (4, 5, 6):
+                skipped.append(f"{where}: points or lines (mode {mode}), no faces")
+                continue
+            if name not in attrs or "POSITION" not in attrs:
+                skipped.append(f"{where}: no {name} (not textured by this UV set)")
+                continue
+            key = (attrs["POSITION"], attrs[name], prim.get("indices"), mode)
+            if key in done:  # the same data under another primitive: read once
+                skipped.append(f"{where}: the same data as {done[key]}")
+                continue
+            done[key] = where
+            P = _accessor(doc, attrs["POSITION"]).astype(float)
+            T = _accessor(doc, attrs[name]).astype(float)
+            if len(T) != len(P):
+                raise NeuralUVError(f"{Path(path).name}: {where}: {name} has {len(T)} entries, POSITION {len(P)}")
+            idx = _accessor(doc, prim["indices"]).reshape(-1) if "indices" in prim else np.arange(len(P))
+            if len(idx) and (idx.min() < 0 or idx.max() >= len(P)):
+                raise NeuralUVError(f"{Path(path).name}: {where}: an index is out of range")
+            tri = _triangles(idx, mode)
+            M = world.get(mi, np.eye(4))
+            Vs.append(P @ M[:3, :3].T + M[:3, 3])
+            Us.append(np.c_[T[:, 0], 1.0 - T[:, 1]])
+            Fs.append(tri + rows)
+            blocks.append({"mesh": mi, "primitive": pi, "uv_accessor": attrs[name], "rows": (rows, len(P)),
+                           "faces": (faces, len(tri)), "mode": mode, "indices": tri})
+            rows += len(P)
+            faces += len(tri)
+    if not blocks:
+        raise NeuralUVError(f"{Path(path).name} has no triangle primitive with {name}"
+                            + (f" ({skipped[0]})" if skipped else ""))
+    F = np.vstack(Fs).astype(np.int64)
+    return GltfLayout(V=np.vstack(Vs), F=F, UV=np.vstack(Us), FUV=F.copy(), blocks=blocks, skipped=skipped,
+                      texcoord=int(texcoord), doc=doc, materials=len(doc.json.get("materials", [])),
+                      textures=len(doc.json.get("textures", [])))
+
+
+def _append(doc, data, *, target=None):
+    """Append bytes to buffer 0 (4-byte aligned) as a new bufferView; its index."""
+    buf = doc.buffers[0]
+    pad = (-len(buf)) % 4
+    buf.extend(b"\0" * pad)
+    view = {"buffer": 0, "byteOffset": len(buf), "byteLength": len(data)}
+    if target:
+        view["target"] = target
+    buf.extend(data)
+    doc.json.setdefault("bufferViews", []).append(view)
+    return len(doc.json["bufferViews"]) - 1
+
+
+def _new_accessor(doc, arr, like=None, *, target=34962):
+    """A new accessor holding ``arr`` (n,w): float32, the component type and flags of accessor ``like``, or
+    (for indices, ``target=34963``) the unsigned integer type of ``arr``."""
+    arr = np.asarray(arr)
+    if target == 34963:
+        comp = {np.dtype(np.uint8): 5121, np.dtype(np.uint16): 5123}.get(arr.dtype, 5125)
+        dt, norm, typ = np.dtype(_DTYPE[comp]).newbyteorder("<"), False, "SCALAR"
+    elif like is not None:
+        a0 = doc.json["accessors"][like]
+        dt, comp, norm = np.dtype(_DTYPE[a0["componentType"]]).newbyteorder("<"), a0["componentType"], \
+            a0.get("normalized", False)
+        typ = a0["type"]
+    else:
+        dt, comp, norm = np.dtype("<f4"), 5126, False
+        typ = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}[arr.shape[1]]
+    data = np.ascontiguousarray(arr.astype(dt))
+    view = _append(doc, data.tobytes(), target=target)
+    acc = {"bufferView": view, "componentType": comp, "count": int(len(arr)), "type": typ}
+    if norm:
+        acc["normalized"] = True
+    if like is not None and ("min" in doc.json["accessors"][like] or "max" in doc.json["accessors"][like]) and len(arr):
+        acc["min"] = data.min(0).tolist()
+        acc["max"] = data.max(0).tolist()
+    doc.json["accessors"].append(acc)
+    return len(doc.json["accessors"]) - 1
+
+
+def _float_uv(uv):
+    """OBJ-convention UVs to glTF float32 rows (``v`` flipped back)."""
+    return np.c_[uv[:, 0], 1.0 - uv[:, 1]].astype("<f4")
+
+
+def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
+    """Write a GLB copy of ``layout``'s file with a new layout, changing nothing else.
+
+    Parameters
+    ----------
+    layout : GltfLayout
+        As read (its file's bytes are the base).
+    UV : (p,2) float array
+        The layout's rows first (rows equal bit for bit to ``layout.UV`` are not written), then new rows.
+    FUV : (m,3) int array
+        Per-triangle rows, one row of faces per face of ``layout.F``.
+    dst : path of the ``.glb`` to write (atomically).
+    mode : {"replace", "add"}
+        ``replace``: the UV set that was read gets the new values. ``add``: a new UV set
+        ``TEXCOORD_k`` (the first free ``k`` of each primitive); the read one stays as it is.
+
+    Returns
+    -------
+    dict: ``mode``, ``texcoord`` (the set written, per primitive), ``rows_changed``, ``primitives_split``
+    (primitives whose vertices had to be split, their attributes copied to new accessors).
+    """
+    import copy
+
+    doc = layout.doc
+    doc = _Doc(doc.path, copy.deepcopy(doc.json), [bytearray(b) for b in doc.buffers], doc.glb,
+               doc.json_chunk)
+    original = copy.deepcopy(doc.json)
+    size0 = len(doc.buffers[0])
+    if not doc.glb or len(doc.buffers) > 1 or any("uri" in b for b in doc.json.get("buffers", [])):
+        raise NeuralUVError("writing back needs a GLB with its one buffer inside (external or several buffers: "
+                            "convert it to GLB first)")
+    if not doc.buffers:
+        doc.buffers.append(bytearray())
+        doc.json["buffers"] = [{"byteLength": 0}]
+    UV = np.asarray(UV, float)
+    FUV = np.asarray(FUV, np.int64)
+    p0 = len(layout.UV)
+    if FUV.shape != layout.F.shape or len(UV) < p0 or not np.isfinite(UV[np.unique(FUV)]).all():
+        raise NeuralUVError("the new layout must give finite UVs to every face of the one read")
+    same = (np.ascontiguousarray(UV[:p0]).view(np.int64) == np.ascontiguousarray(layout.UV).view(np.int64)).all(1)
+    info = {"mode": mode, "texcoord": [], "rows_changed": int((~same).sum()), "primitives_split": 0}
+    for b in layout.blocks:
+        r0, nr = b["rows"]
+        f0, nf = b["faces"]
+        prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
+        own = FUV[f0:f0 + nf]
+        local = b["indices"]  # (nf,3) vertex of each corner
+        # the row each vertex needs: one per vertex unless the layout split it
+        pairs = np.unique(np.c_[local.reshape(-1), own.reshape(-1)], axis=0)
+        split = len(pairs) != len(np.unique(pairs[:, 0])) or (own.reshape(-1) != local.reshape(-1) + r0).any()
+        if not split:
+            vrow = np.arange(nr) + r0
+            changed = ~same[vrow]
+            if mode == "replace":
+                if not changed.any():
+                    info["texcoord"].append(layout.texcoord)
+                    continue
+                acc_i = b["uv_accessor"]
+                acc = doc.json["accessors"][acc_i]
+                if acc["componentType"] == 5126 and "bufferView" in acc and "sparse" not in acc:
+                    bv = doc.json["bufferViews"][acc["bufferView"]]
+                    start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
+                    stride = bv.get("byteStride") or 8
+                    new = _float_uv(UV[vrow[changed]])
+                    buf = doc.buffers[bv["buffer"]]
+                    for v, val in zip(np.flatnonzero(changed), new):
+                        buf[start + stride * v:start + stride * v + 8] = val.tobytes()
+                else:  # a normalized integer (or odd) accessor: a float one in its place
+                    prim["attributes"][f"TEXCOORD_{layout.texcoord}"] = _new_accessor(doc, _float_uv(UV[vrow]))
+                info["texcoord"].append(layout.texcoord)
+            else:
+                k = _free_set(prim)
+                prim["attributes"][f"TEXCOORD_{k}"] = _new_accessor(doc, _float_uv(UV[vrow]))
+                info["texcoord"].append(k)
+            continue
+        # split vertices: gather every vertex attribute (and morph target) onto the new vertices
+        info["primitives_split"] += 1
+        corner_v = local.reshape(-1)
+        corner_r = own.reshape(-1)
+        uniq, inv = np.unique(np.c_[corner_v, corner_r], axis=0, return_inverse=True)
+        src_v = uniq[:, 0]
+        for name, ai in list(prim["attributes"].items()):
+            if mode == "replace" and name == f"TEXCOORD_{layout.texcoord}":
+                continue
+            prim["attributes"][name] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+        for t in prim.get("targets", []):
+            for name, ai in list(t.items()):
+                t[name] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+        k = layout.texcoord if mode == "replace" else _free_set(prim)
+        prim["attributes"][f"TEXCOORD_{k}"] = _new_accessor(doc, _float_uv(UV[uniq[:, 1]]))
+        tri = inv.reshape(-1).astype(np.uint32 if len(uniq) > 65535 else np.uint16)
+        prim["indices"] = _new_accessor(doc, tri.reshape(-1, 1), target=34963)
+        prim["mode"] = 4
+        info["texcoord"].append(k)
+    if len(doc.buffers[0]) != size0:  # data appended (the chunk read may hold padding beyond byteLength)
+        doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+    _write_glb(doc, dst, keep_json=doc.json == original)
+    return info
+
+
+def _free_set(prim):
+    k = 0
+    while f"TEXCOORD_{k}" in prim["attributes"]:
+        k += 1
+    return k
+
+
+def _write_glb(doc, dst, keep_json=False):
+    body = doc.json_chunk if keep_json and doc.json_chunk else json.dumps(doc.json, separators=(",", ":")).encode()
+    body += b" " * ((-len(body)) % 4)
+    binary = bytes(doc.buffers[0]) + b"\0" * ((-len(doc.buffers[0])) % 4)
+    chunks = struct.pack("<II", len(body), _JSON) + body
+    if doc.json.get("buffers"):
+        chunks += struct.pack("<II", len(binary), _BIN) + binary
+    with atomic_write(dst, "wb") as fh:
+        fh.write(struct.pack("<III", _GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
