@@ -9,6 +9,7 @@ VENV    ?= .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 MIRROR  ?= ../shared/data/meshes
+AUTHORED_MIRROR ?= ../shared/data/authored
 LAB_ARGS ?=
 export NEURALUV_DATA ?= $(CURDIR)/.cache/neuraluv-data
 export MPLBACKEND ?= Agg
@@ -33,6 +34,8 @@ demo: install
 data: install
 	@if [ -d "$(MIRROR)" ]; then $(BIN)/python data_scripts/fetch.py --from "$(MIRROR)"; \
 	else echo "no mirror at $(MIRROR): tests that need real meshes will skip"; fi
+	@if [ -d "$(AUTHORED_MIRROR)" ]; then $(BIN)/python data_scripts/fetch.py --authored --from "$(AUTHORED_MIRROR)" | tail -1; \
+	else echo "no mirror at $(AUTHORED_MIRROR): tests on real authored assets will skip"; fi
 
 test: install data
 	$(BIN)/python -m pytest -q

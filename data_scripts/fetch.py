@@ -4,6 +4,7 @@
     python data_scripts/fetch.py                      # download every mesh (pooch)
     python data_scripts/fetch.py camel_b hand         # only these
     python data_scripts/fetch.py --from ../shared/data/meshes   # offline import, sha256-checked
+    python data_scripts/fetch.py --authored --from ../shared/data/authored   # the authored UV layouts
 
 The cache is ``$NEURALUV_DATA`` (default: the user cache folder). Nothing is
 written into the repository. The compact charts (camel, hand, bob) are derived
@@ -21,7 +22,15 @@ def main(argv=None):
     p.add_argument("names", nargs="*", help="registry names (default: all)")
     p.add_argument("--from", dest="source", help="local mirror folder to import from")
     p.add_argument("--no-download", action="store_true", help="never touch the network")
+    p.add_argument("--authored", action="store_true", help="the authored assets with UV layouts instead")
     a = p.parse_args(argv)
+    if a.authored:
+        res = datasets.fetch_authored(a.source, download=not a.no_download)
+        bad = [n for n, v in res.items() if isinstance(v, str)]
+        for n, v in res.items():
+            print(f"{n:32s} {'ok   ' if not isinstance(v, str) else 'FAIL ' + v}")
+        print(f"{len(res) - len(bad)}/{len(res)} authored assets in {datasets.data_dir() / 'authored'}")
+        return 1 if bad else 0
     res = datasets.fetch_all(a.source, a.names or None, download=not a.no_download)
     bad = [n for n, v in res.items() if isinstance(v, str)]
     for n, v in res.items():

@@ -2,7 +2,8 @@
 
 =================  ==========================================================
 ``procedural``     charts generated in code (disk, cap, saddle, glove, ...)
-``registry``       real meshes by URL + sha256, fetch/import, the compact charts
+``registry``       real meshes by URL + sha256, fetch/import, the compact charts; real
+                   authored assets with UV layouts (:data:`AUTHORED`)
 ``generated``      messy generated-like assets (holes, fragments, slivers, ...)
 =================  ==========================================================
 
@@ -10,11 +11,12 @@ Real meshes are never committed; they are cached under ``$NEURALUV_DATA``.
 """
 from neuraluv.datasets.procedural import (PROCEDURAL, bumpy_disk, disk, glove, procedural, saddle, several_components,
                                           sphere, spherical_cap)
-from neuraluv.datasets.registry import (CLOSED, COMPACT, LARGE, REGISTRY, DataMissing, available, data_dir, fetch,
-                                        fetch_all, load, load_charts, load_raw)
+from neuraluv.datasets.registry import (AUTHORED, CLOSED, COMPACT, LARGE, REGISTRY, DataMissing, authored_path,
+                                        available, data_dir, fetch, fetch_all, fetch_authored, load, load_charts,
+                                        load_raw)
 
 __all__ = [
     "disk", "spherical_cap", "saddle", "bumpy_disk", "glove", "several_components", "sphere", "PROCEDURAL",
     "procedural", "REGISTRY", "COMPACT", "CLOSED", "LARGE", "data_dir", "fetch", "fetch_all", "available", "load",
-    "load_raw", "load_charts", "DataMissing",
+    "load_raw", "load_charts", "DataMissing", "AUTHORED", "authored_path", "fetch_authored",
 ]

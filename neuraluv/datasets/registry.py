@@ -66,6 +66,38 @@ REGISTRY = {
     ]
 }
 
+#: Real authored assets with UV layouts (and their material and texture files), the development set of
+#: ``check --uv`` / ``repair``: file name -> (upstream URL or None, sha256, licence note). Cached under
+#: ``data_dir() / "authored"``; the Blender-made layouts have no URL (import them from a mirror).
+_TRIMESH = "https://raw.githubusercontent.com/mikedh/trimesh/a513c0e/models/"
+AUTHORED = {
+    fname: (url, sha, lic)
+    for fname, url, sha, lic in [
+        ('BoxTextured.glb', _TRIMESH + 'BoxTextured.glb', "cb5dbde10719fc84c2f2db4a071d9f64a1a679488a28f2c98765d0611ad5e0d1", 'Khronos glTF sample model by Cesium, CC-BY 4.0'),
+        ('CesiumMilkTruck.glb', _TRIMESH + 'CesiumMilkTruck.glb', "2f17d0f4f48f23cf9d6c8d117e8f5a9ab3e2374dfd8b2e207506438c2c0b0b84", 'Khronos glTF sample model by Cesium, CC-BY 4.0'),
+        ('Duck.glb', _TRIMESH + 'Duck.glb', "65bf938f54d6073e619e76e007820bbf980cdc3dc0daec0d94830ffc4ae54ab5", 'Khronos glTF sample model, SCEA Shared Source License 1.0'),
+        ('bl_cube_shifted_outside.obj', None, "ec13b322efe9bff2916bac32b3f71985cb0ea226b288d84c090b3f5044350af9", 'made with Blender 4.5 by make_blender_layouts.py (spot: Keenan Crane, CC0)'),
+        ('bl_cylinder_array_stacked.obj', None, "c9849463fb3a04e3016828af4289aa27c2a73b6a096ff970a69ce33c22dcd6b5", 'made with Blender 4.5 by make_blender_layouts.py (spot: Keenan Crane, CC0)'),
+        ('bl_floor_tiled_x4.obj', None, "5ce3d157a9fa6da4ad97b92b1f7c11aa158f243f91dd9e50a4c91c7c58e120bc", 'made with Blender 4.5 by make_blender_layouts.py (spot: Keenan Crane, CC0)'),
+        ('bl_spot_seams_unwrap.obj', None, "5199875fc7ee118abf866fb9a35694caeeb53b58cdaa4c7ea821eb245fde3d0e", 'made with Blender 4.5 by make_blender_layouts.py (spot: Keenan Crane, CC0)'),
+        ('bl_spot_udim.obj', None, "3b2e9e525aff53bf7a86dd3d2cc2256f1857cc910c43d914c10c44c5e0e00292", 'made with Blender 4.5 by make_blender_layouts.py (spot: Keenan Crane, CC0)'),
+        ('bl_suzanne_mirrored_halves.obj', None, "327eb4a33aca65688fb04690da8b1cdfaa31d356637b05ae6043d69742e5fb48", 'made with Blender 4.5 by make_blender_layouts.py (spot: Keenan Crane, CC0)'),
+        ('box.obj', _TRIMESH + 'box.obj', "918234c1c9166cce4e9a463d7057a59b5b7cfe40a5f4f9240740c79b7a9fa4a9", 'trimesh test models (MIT repository)'),
+        ('capsule.mtl', _TRIMESH + 'capsule.mtl', "e1bae6e1abc5284983179b8260a16e03dfa5e5264aaac288df16958feeeec910", 'trimesh test models (MIT repository)'),
+        ('capsule.obj', _TRIMESH + 'capsule.obj', "7e4e244a290331c5f4f3590b0114b30e70cd78dd8211780ba818b573ad45999f", 'trimesh test models (MIT repository)'),
+        ('capsule0.jpg', _TRIMESH + 'capsule0.jpg', "e7d1ab42a5b584779d0df0cde43ca3f71629fe84c3a5bca7988b19a6243d2837", 'trimesh test models (MIT repository)'),
+        ('chair_model.obj', _TRIMESH + 'chair_model.obj', "7707885a613f733749912dc182ab7172b7498e5fe62810bb1951017612fb8b05", 'trimesh test models (MIT repository)'),
+        ('fuze uv.jpg', _TRIMESH + 'fuze uv.jpg', "4a4466ec7fec60a5ee2a29e7dac2b5c0c78d57b4a20ba1c8f6471689561acee3", 'trimesh test models (MIT repository)'),
+        ('fuze.obj', _TRIMESH + 'fuze.obj', "a42779b57af5969baf8a08fd2194f57d5a87882ddc1f2dfcce05f99519e7ce60", 'trimesh test models (MIT repository)'),
+        ('fuze.obj.mtl', _TRIMESH + 'fuze.obj.mtl', "cbaad4842d5096786240908be7fcb0c43256799fe543fec050bc91ffb2cc8b40", 'trimesh test models (MIT repository)'),
+        ('ico4uv.mtl', _TRIMESH + 'ico4uv.mtl', "6e35bcf7fe06b2a05c3c8e8456c4b14d41728cb454a2aa426833a2c504baf3aa", 'trimesh test models (MIT repository)'),
+        ('ico4uv.obj', _TRIMESH + 'ico4uv.obj', "740a4eadbc7de49ca5367a8287de0a63a50684ca4c942d8bcb0064ed817cf933", 'trimesh test models (MIT repository)'),
+        ('textured_tetrahedron.obj', _TRIMESH + 'textured_tetrahedron.obj', "0e64cfad3260b78676dccd65b64eb06bd8fd72fe496f38df43c8891719b922ca", 'trimesh test models (MIT repository)'),
+        ('tube.obj', _TRIMESH + 'tube.obj', "933aa18c58fb88adcb6ce36fdfa418e59902b54519a99e35f17ccdc107d01506", 'trimesh test models (MIT repository)'),
+        ('wallhole.obj', _TRIMESH + 'wallhole.obj', "1fbc5796c69f440c9f1e4052d3044095e9ec742a92cac4f909c7301f39c4e654", 'trimesh test models (MIT repository)'),
+    ]
+}
+
 #: The paper's compact charts: name -> registry mesh they are derived from.
 COMPACT = {"camel": "camel_b", "hand": "hand", "bob": "bob_tri"}
 
@@ -157,6 +189,54 @@ def fetch_all(source=None, names=None, download=True):
             out[name] = fetch(name, source, download=download)
         except NeuralUVError as exc:
             out[name] = str(exc)
+    return out
+
+
+def authored_path(fname):
+    """Path of the authored asset ``fname`` in the cache (:data:`AUTHORED`), or :class:`DataMissing`."""
+    if fname not in AUTHORED:
+        raise NeuralUVError(f"unknown authored asset {fname!r}; known: {', '.join(sorted(AUTHORED))}")
+    p = data_dir() / "authored" / fname
+    if not p.exists():
+        raise DataMissing(f"authored asset {fname!r} is not cached; run `python data_scripts/fetch.py --authored "
+                          "--from DIR` (or without --from, to download)")
+    return p
+
+
+def fetch_authored(source=None, *, download=True):
+    """Put every authored asset (:data:`AUTHORED`) in ``data_dir() / "authored"``: ``{file: path or error}``.
+
+    Parameters
+    ----------
+    source : path-like, optional
+        A local mirror folder (sha256-checked copies); without it, the assets with a URL are downloaded.
+    download : bool
+    """
+    out = {}
+    dest_dir = data_dir() / "authored"
+    dest_dir.mkdir(parents=True, exist_ok=True)
+    for fname, (url, sha, _) in sorted(AUTHORED.items()):
+        dest = dest_dir / fname
+        try:
+            if dest.exists() and _sha256(dest) == sha:
+                out[fname] = dest
+                continue
+            if source is not None and (Path(source) / fname).exists():
+                src = Path(source) / fname
+                got = _sha256(src)
+                if got != sha:
+                    raise NeuralUVError(f"{src}: sha256 {got[:12]}… does not match the registry ({sha[:12]}…)")
+                tmp = dest.with_name(dest.name + ".part")
+                shutil.copyfile(src, tmp)
+                os.replace(tmp, dest)
+                out[fname] = dest
+            elif url and download:
+                out[fname] = Path(pooch.retrieve(url, known_hash=f"sha256:{sha}", fname=fname, path=dest_dir,
+                                                 progressbar=False))
+            else:
+                raise DataMissing(f"{fname}: not in the mirror" + ("" if url else " (made in Blender: no URL)"))
+        except Exception as exc:  # noqa: BLE001 - one line per asset
+            out[fname] = str(exc) if isinstance(exc, NeuralUVError) else f"{fname}: {type(exc).__name__}"
     return out
 
 

@@ -6,9 +6,12 @@ region with its ring pinned); the diagnosis, untangling, polishing and placing
 are NumPy/SciPy/shapely and do not import torch.
 
 =============  ==============================================================
-``diagnose``   every problem of a layout, where it is, and what repair does
+``diagnose``   every problem of a layout under its purpose, where it is, and what
+               repair does; the intentional features it keeps
 ``untangle``   Garanzha et al. 2021 untangling; flip-free polish of the stable objective
 ``local``      fold repair in the smallest ring-grown region that works
+``shells``     the texture purpose: folds repaired in each shell's own orientation
+``separate``   step 5: overlapping, out-of-square and new islands moved; repacking
 ``repair``     the escalation for a whole layout, the diff and the report
 =============  ==============================================================
 

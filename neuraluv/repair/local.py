@@ -31,15 +31,15 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from neuraluv.layout.facts import texel_density
+from neuraluv.layout.facts import face_clusters, texel_density
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.meshfix import normalize_unit_box
-from neuraluv.metrics import corner_jacobians, face_metrics
+from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.repair.untangle import RegionEnergy, polish, untangle
 from neuraluv.solver.config import get_config
 
 __all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd",
-           "island_esds"]
+           "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces", "with_stretched_neighbours"]
 
 #: Ring counts tried around a fold, in order.
 RING_SCHEDULE = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
@@ -387,3 +387,55 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
                 return out, {"step": "neural (ring pinned)", "rings": r, "region_faces": int(len(region)),
                              "free_rows": int(len(free)), "tried": tried, "time": time.perf_counter() - t0}
     return None, {"step": "escalate", "tried": tried, "time": time.perf_counter() - t0}
+
+
+def untangle_faces(Vn, F, UV, FUV, faces, rows, density, allowed=None):
+    """Untangle ``faces`` with ``rows`` free (then polish); ``(UV, info)`` or ``(None, info)`` when not valid."""
+    t0 = time.perf_counter()
+    if not len(rows):
+        return None, {"ok": False}
+    try:
+        out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density)
+    except ValueError:
+        return None, {"ok": False}
+    if not (info["ok"] and region_overlaps(out, FUV, faces, faces, allowed) == 0):
+        return None, info
+    out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density)
+    if region_overlaps(out2, FUV, faces, faces, allowed):
+        out2 = out
+    return out2, {"step": "untangle whole shell", "free_rows": int(len(rows)), "time": time.perf_counter() - t0}
+
+
+def face_dets_of(Vn, F, UV, FUV, faces):
+    """det J of ``faces`` (an empty array for none)."""
+    faces = np.asarray(faces, np.int64)
+    return face_dets(Vn, F[faces], UV, FUV[faces]) if len(faces) else np.zeros(0)
+
+
+def self_overlap_faces(UV, FUV, island, det, subset=None):
+    """Positive faces of ``island`` (or of ``subset``) overlapping another positive face of the island."""
+    a, b = overlap_pairs(UV, FUV, island[det > 0], subset)
+    return np.unique(np.concatenate([a, b]))
+
+
+def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
+    """``targets`` plus the severely stretched faces joined to them: a fold's damage beyond its flipped faces.
+
+    A face is severely stretched when its conformal distortion σ_max/σ_min (scale-free, so a conformal map's
+    shrunken parts do not count) is above ``factor`` and above ``factor`` times the island's median. Only
+    such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a stretched
+    face elsewhere is the layout's own and stays untouched.
+    """
+    ok = np.setdiff1d(island, targets)
+    if not len(ok):
+        return targets
+    conf = face_metrics(corner_jacobians(Vn, F[ok], UV, FUV[ok])[0])["conformal"]
+    fin = conf[np.isfinite(conf)]
+    if not len(fin):
+        return targets
+    stretched = ok[conf > factor * max(1.0, float(np.median(fin)))]
+    if not len(stretched):
+        return targets
+    cand = np.concatenate([targets, stretched])
+    keep = [c for c in face_clusters(FUV, cand) if np.isin(c, targets).any()]
+    return np.unique(np.concatenate(keep))

@@ -22,7 +22,7 @@ Every other ``vt`` row stays bit-identical; the result records, per island,
 what changed (faces, rows, the largest UV displacement in texels) and the
 before/after distortion. A layout with nothing wrong is returned unchanged.
 
-Size: the escalation of :func:`repair_layout` (reflect, local, whole island, new charts, separation) and its report are read top to bottom as one procedure; the steps themselves live in :mod:`~neuraluv.repair.local`, :mod:`~neuraluv.repair.untangle` and :mod:`neuraluv.layout` (facts, overlaps, placement, packing).
+Size: the escalation of :func:`repair_layout` (reflect, local, whole island, new charts, separation) and its report are read top to bottom as one procedure; the steps themselves live in :mod:`~neuraluv.repair.local`, :mod:`~neuraluv.repair.untangle`, :mod:`~neuraluv.repair.shells` (the texture purpose), :mod:`~neuraluv.repair.separate` (step 5) and :mod:`neuraluv.layout` (facts, purpose, overlaps, placement, packing).
 """
 from __future__ import annotations
 
@@ -37,25 +37,20 @@ from neuraluv.atlas.routing import fallback_islands, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
 from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, layout_facts
-from neuraluv.layout.overlap import overlap_pairs, triangles_union
-from neuraluv.layout.pack import shelf_pack
-from neuraluv.layout.purpose import check_purpose, layout_intent
-from neuraluv.layout.place import FreeSpace
-from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box
+from neuraluv.layout.purpose import check_purpose
+from neuraluv.layout.rigid import rigid_fit
 from neuraluv.meshfix import face_areas
-from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.plot import plot_repair
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
-from neuraluv.repair.local import IslandGraph, island_esds, region_overlaps, repair_cluster
-from neuraluv.repair.untangle import polish, untangle
+from neuraluv.repair.local import (IslandGraph, face_dets_of, island_esds, repair_cluster, self_overlap_faces,
+                                   untangle_faces, with_stretched_neighbours)
+from neuraluv.repair.separate import SHRINK_SCALES, repack_all, separate
+from neuraluv.repair.shells import repair_shells
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import torch_threads
 from neuraluv.topology import submesh
 
 __all__ = ["RepairResult", "repair_layout", "SHRINK_SCALES"]
-
-#: Uniform scales tried, in order, for an island that fits nowhere at its own size.
-SHRINK_SCALES = (1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3)
 
 
 @dataclass
@@ -261,7 +256,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
 
     with torch_threads(threads):
         if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
-            UVw, FUVw = _repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
+            UVw, FUVw = repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)
         else:
             UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, seed=seed,
@@ -275,7 +270,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     # 5. overlaps between islands, out of the square, new islands: move the fewest (or pack them all afresh)
     if repack:
         f5 = layout_facts(Vn, F, UVw, FUVw, normalized=True)
-        UVw, FUVw = _repack_all(Vn, F, UVw, FUVw, f5, padding, resolution, tight=True)
+        UVw, FUVw = repack_all(Vn, F, UVw, FUVw, f5, padding, resolution, tight=True)
         placements, repacked = {}, True
         for j in range(f5.n_islands):
             lab0 = facts.label[f5.island_faces(j)]
@@ -283,7 +278,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
             if len(lab0):
                 placements.setdefault(int(np.bincount(lab0).argmax()), {"step": "repacked (a layout of its own)"})
     else:
-        UVw, FUVw, placements, repacked = _separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding,
+        UVw, FUVw, placements, repacked = separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding,
                                                     only_new=purpose == "texture")
     for i, pl in placements.items():
         if i >= 0:
@@ -334,8 +329,8 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
             UVw[rows, 0] = 2.0 * cx - UVw[rows, 0]
             actions[i].append({"step": "reflected", "rows": int(len(rows))})
             movers_pref.add(i)
-            det = _dets(Vn, F, UVw, FUVw, fi)
-            over = _self_overlap_faces(UVw, FUVw, fi, det)
+            det = face_dets_of(Vn, F, UVw, FUVw, fi)
+            over = self_overlap_faces(UVw, FUVw, fi, det)
         else:
             det = facts.det[fi]
             over = np.unique(over_faces[over_label == i])
@@ -344,12 +339,12 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
         targets = np.unique(np.concatenate([bad, over]))
         if not len(targets):
             continue
-        targets = _with_stretched_neighbours(Vn, F, UVw, FUVw, fi, targets)
+        targets = with_stretched_neighbours(Vn, F, UVw, FUVw, fi, targets)
         graph = IslandGraph(FUVw, fi, len(UVw))
         escalate = False
         for cl in face_clusters(FUVw, targets):
-            det_cl = _dets(Vn, F, UVw, FUVw, cl)
-            if (det_cl > 0).all() and not len(_self_overlap_faces(UVw, FUVw, fi, _dets(Vn, F, UVw, FUVw, fi), cl)):
+            det_cl = face_dets_of(Vn, F, UVw, FUVw, cl)
+            if (det_cl > 0).all() and not len(self_overlap_faces(UVw, FUVw, fi, face_dets_of(Vn, F, UVw, FUVw, fi), cl)):
                 continue  # fixed by an earlier cluster's region
             out, info = repair_cluster(Vn, F, UVw, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)
@@ -368,127 +363,6 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
     return UVw, FUVw
 
 
-def _repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural):
-    """Steps 1-3 under the ``texture`` purpose: each shell's folds and UV-degenerate faces repaired locally, in
-    the shell's own orientation, with the rows it shares with other shells of its island locked.
-
-    A reversed shell is repaired on the layout negated in ``u`` (exact), then negated back, so every row
-    the repair does not free is bit-identical. Pairs of the shell's faces that overlapped on purpose may
-    stay; a repaired region makes no other overlap. A fold whose rows are all shared with another shell (a
-    fold on the seam of a stacked copy) gets copies of those rows for its own shell (same values; the other
-    shell keeps the originals) and is repaired on them. A cluster no local region repairs is untangled
-    with the whole shell free (locked rows kept); one that still fails is left as it is and reported.
-    Returns ``UV, FUV``.
-    """
-    it = layout_intent(facts, "texture")
-    bad = it.fold | it.degenerate
-    for k in np.unique(it.shell[bad]):
-        shell = it.shell_faces(k)
-        i = int(it.shell_island[k])
-        outside = np.setdiff1d(facts.island_faces(i), shell, assume_unique=True)
-        locked = np.zeros(len(UVw), bool)
-        locked[np.unique(FUVw[outside])] = True
-        flip = it.shell_sign[k] < 0
-        work = UVw * np.array([-1.0, 1.0]) if flip else UVw
-        dens = facts.density[i] if np.isfinite(facts.density[i]) else med
-        targets = shell[bad[shell]]
-        graph = IslandGraph(FUVw, shell, len(work), locked=locked)
-        allowed = _intended_overlaps(work, FUVw, shell, bad, IslandGraph(FUVw, shell, len(work)))
-        targets = _with_stretched_neighbours(Vn, F, work, FUVw, shell, targets)
-        for cl in face_clusters(FUVw, targets):
-            if (_dets(Vn, F, work, FUVw, cl) > 0).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
-                continue  # fixed by an earlier cluster's region
-            kw = dict(config=cfg, seed=seed, device=device, deadline=deadline, neural=neural, allowed=allowed)
-            out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
-            split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
-            if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
-                new = len(work) + np.arange(len(split))
-                work = np.vstack([work, work[split]])
-                sub = FUVw[shell]
-                hit = np.isin(sub, split)
-                sub[hit] = new[np.searchsorted(split, sub[hit])]
-                FUVw = FUVw.copy()
-                FUVw[shell] = sub
-                locked = np.r_[locked, np.zeros(len(split), bool)]
-                graph = IslandGraph(FUVw, shell, len(work), locked=locked)
-                out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
-                if out is not None:
-                    info = {**info, "split_rows": int(len(split))}
-            if out is None:
-                rows = np.setdiff1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
-                out, info = _untangle_free(Vn, F, work, FUVw, shell, rows, dens, allowed)
-            if out is None:
-                actions[i].append({"step": "left folded", "cluster_faces": int(len(cl)),
-                                   "reason": "no local region and no untangle of the whole shell was valid"})
-                continue
-            work = out
-            actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows",
-                                                      "split_rows") if kk in info}
-                              | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
-                                 **({"mirrored_shell": True} if flip else {})})
-        UVw = work * np.array([-1.0, 1.0]) if flip else work
-    return UVw, FUVw
-
-
-def _intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
-    """Pairs of the shell's faces that overlap on purpose: a repaired region may keep them.
-
-    Two overlapping faces of which neither is broken overlap on purpose (a shell laid over itself); so do a
-    broken face and a face more than ``rings`` rings away from it (the fold lies where the shell is stacked
-    on another part of itself). A broken face over its near neighbours is the fold itself.
-    """
-    a, b = overlap_pairs(UV, FUV, shell)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    keep = ~bad[lo] & ~bad[hi]
-    for n in np.flatnonzero(~keep):
-        i, j = (lo[n], hi[n]) if bad[lo[n]] else (hi[n], lo[n])
-        near = np.zeros(graph.M.shape[1], bool)
-        near[FUV[i]] = True
-        for _ in range(rings):
-            near = graph.grow(near)
-        keep[n] = not near[FUV[j]].any()
-    return set(zip(lo[keep].tolist(), hi[keep].tolist()))
-
-
-def _untangle_free(Vn, F, UV, FUV, faces, rows, density, allowed=None):
-    """Untangle ``faces`` with ``rows`` free (then polish); ``(UV, info)`` or ``(None, info)`` when not valid."""
-    t0 = time.perf_counter()
-    if not len(rows):
-        return None, {"ok": False}
-    try:
-        out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density)
-    except ValueError:
-        return None, {"ok": False}
-    if not (info["ok"] and region_overlaps(out, FUV, faces, faces, allowed) == 0):
-        return None, info
-    out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density)
-    if region_overlaps(out2, FUV, faces, faces, allowed):
-        out2 = out
-    return out2, {"step": "untangle whole shell", "free_rows": int(len(rows)), "time": time.perf_counter() - t0}
-
-
-def _new_islands_in_empty_tile(UV, FUV, f, new, padding, resolution):
-    """Shelf-pack the islands ``new`` (labels of ``f``) into the first unit tile ``[k, k+1] × [0, 1]`` to the
-    right of every other island's UVs (placements keyed ``-1, -2, …``), moving no other row."""
-    others = np.setdiff1d(np.arange(f.n_islands), new)
-    used = np.unique(f.FUV[np.isin(f.label, others)]) if len(others) else np.zeros(0, np.int64)
-    k = int(np.floor(UV[used, 0].max())) + 1 if len(used) else 0
-    uvs, tris, rows_of = [], [], []
-    for j in new:
-        rows = np.unique(f.FUV[f.island_faces(j)])
-        uvs.append(rotate_to_min_box(UV[rows]))
-        tris.append(np.searchsorted(rows, f.FUV[f.island_faces(j)]))
-        rows_of.append(rows)
-    pk = shelf_pack(uvs, tris, padding=padding, resolution=resolution)
-    UVo = UV.copy()
-    placements = {}
-    for n, (rows, u) in enumerate(zip(rows_of, pk.uvs)):
-        UVo[rows] = u + [k, 0.0]
-        placements[-1 - n] = {"step": "placed in an empty tile", "tile": [k, 0], "scale": float(pk.scale),
-                              "why": "new; no free space at the layout's density among the user's islands"}
-    return UVo, FUV, placements
-
-
 def _island_base(isl):
     return {k: isl[k] for k in ("island", "faces", "uv_rows", "texel_density", "mirrored", "flipped", "degenerate",
                                 "self_overlap_pairs", "outside_unit_square", "shells", "mirrored_faces", "folded",
@@ -500,45 +374,11 @@ def _same_bits(A, B):
     return (np.ascontiguousarray(A).view(np.int64) == np.ascontiguousarray(B).view(np.int64)).all(1)
 
 
-def _dets(Vn, F, UV, FUV, faces):
-    faces = np.asarray(faces, np.int64)
-    return face_dets(Vn, F[faces], UV, FUV[faces]) if len(faces) else np.zeros(0)
-
-
-def _self_overlap_faces(UV, FUV, island, det, subset=None):
-    """Positive faces of ``island`` (or of ``subset``) overlapping another positive face of the island."""
-    a, b = overlap_pairs(UV, FUV, island[det > 0], subset)
-    return np.unique(np.concatenate([a, b]))
-
-
-def _with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
-    """``targets`` plus the severely stretched faces joined to them: a fold's damage beyond its flipped faces.
-
-    A face is severely stretched when its conformal distortion σ_max/σ_min (scale-free, so a conformal map's
-    shrunken parts do not count) is above ``factor`` and above ``factor`` times the island's median. Only
-    such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a stretched
-    face elsewhere is the layout's own and stays untouched.
-    """
-    ok = np.setdiff1d(island, targets)
-    if not len(ok):
-        return targets
-    conf = face_metrics(corner_jacobians(Vn, F[ok], UV, FUV[ok])[0])["conformal"]
-    fin = conf[np.isfinite(conf)]
-    if not len(fin):
-        return targets
-    stretched = ok[conf > factor * max(1.0, float(np.median(fin)))]
-    if not len(stretched):
-        return targets
-    cand = np.concatenate([targets, stretched])
-    keep = [c for c in face_clusters(FUV, cand) if np.isin(c, targets).any()]
-    return np.unique(np.concatenate(keep))
-
-
 def _whole_island(Vn, F, UV, FUV, faces, density, cfg, *, neural, seed, device, deadline):
     """Last resorts for one island: untangle it whole (free boundary), else re-solve it as a chart."""
     rows = np.unique(FUV[faces])
     t0 = time.perf_counter()
-    out, info = _untangle_free(Vn, F, UV, FUV, faces, rows, density)
+    out, info = untangle_faces(Vn, F, UV, FUV, faces, rows, density)
     if out is not None:
         return out, FUV, {"step": "untangle whole island", "rows": int(len(rows)), "time": time.perf_counter() - t0}
     pieces, routes = _resolve_island(Vn, F, UV, FUV, faces, density, cfg, seed=seed, device=device, deadline=deadline)
@@ -576,104 +416,3 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
             out.append({"faces": int(len(fl)), "route": route, "method": method, "reason": reason})
     return UVo, FUVo, out
 
-
-def _separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=False):
-    """Move the fewest islands so that none overlaps another or leaves [0,1]²; new islands are placed too.
-
-    ``only_new``: place the new islands in free space and move nothing else (the ``texture`` purpose).
-
-    ``Vn`` is the unit-box mesh. Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action},
-    repacked``.
-    """
-    f = layout_facts(Vn, F, UV, FUV, normalized=True)
-    # map current islands to input islands (-1: new)
-    origin = -np.ones(f.n_islands, np.int64)
-    for j in range(f.n_islands):
-        fj = f.island_faces(j)
-        lab0 = facts0.label[fj]
-        lab0 = lab0[lab0 >= 0]
-        if len(lab0):
-            origin[j] = np.bincount(lab0).argmax()
-    ii, jj, _ = f.overlaps()
-    li, lj = f.label[ii], f.label[jj]
-    cross = li != lj
-    edges = {(int(min(a, b)), int(max(a, b))) for a, b in zip(li[cross], lj[cross])}
-    area = np.bincount(f.label[f.usable], weights=np.abs(np.nan_to_num(f.signed_uv[f.usable])), minlength=f.n_islands)
-    must = set()
-    for j in range(f.n_islands):
-        rows = np.unique(f.FUV[f.island_faces(j)])
-        if origin[j] < 0 or (not only_new and (UV[rows].min() < 0 or UV[rows].max() > 1)):
-            must.add(j)
-    edges = set() if only_new else {e for e in edges if e[0] not in must and e[1] not in must}
-    movers = set(must)
-    while edges:
-        deg = {}
-        for a, b in edges:
-            deg[a] = deg.get(a, 0) + 1
-            deg[b] = deg.get(b, 0) + 1
-        pick = max(deg, key=lambda j: (deg[j], origin[j] in prefer, -area[j]))
-        movers.add(pick)
-        edges = {e for e in edges if pick not in e}
-    if not movers:
-        return UV, FUV, {}, False
-    space = FreeSpace([triangles_union(UV, f.FUV[f.island_faces(j)])[0] for j in range(f.n_islands) if j not in movers],
-                      resolution=resolution, padding=padding)
-    UVo = UV.copy()
-    FUVo = FUV.copy()
-    placements = {}
-    order = sorted(movers, key=lambda j: -area[j])
-    failed = False
-    for j in order:
-        fj = f.island_faces(j)
-        rows = np.unique(f.FUV[fj])
-        T = np.searchsorted(rows, f.FUV[fj])
-        pl = None
-        for scales in ((1.0,), SHRINK_SCALES[1:]):
-            pl = space.place(UVo[rows], T, scales=scales)
-            if pl.uv is not None:
-                break
-        if pl is None or pl.uv is None:
-            failed = True
-            break
-        UVo[rows] = pl.uv
-        space.add(triangles_union(UVo, f.FUV[fj])[0])
-        key = int(origin[j]) if origin[j] >= 0 else -1 - len([k for k in placements if k < 0])
-        placements[key] = {"step": "moved", "quarter_turns": pl.turns, "scale": pl.scale,
-                           "shift": [float(x) for x in pl.shift], "distance": pl.distance,
-                           "why": ("new" if origin[j] < 0 else "outside [0,1]²" if j in must else "overlap")}
-    if not failed:
-        return UVo, FUVo, placements, False
-    if only_new:  # the user's islands never move: the new ones go to a unit tile no island touches
-        return (*_new_islands_in_empty_tile(UV, FUV, f, [j for j in order if origin[j] < 0], padding, resolution),
-                False)
-    # nothing else fits: repack every island at a common scale (reported)
-    UVr, FUVo = _repack_all(Vn, F, UV, FUVo, f, padding, resolution, tight=False)
-    placements = {int(origin[j]) if origin[j] >= 0 else -1 - j: {"step": "repacked"} for j in range(f.n_islands)}
-    return UVr, FUVo, placements, True
-
-
-def _repack_all(Vn, F, UV, FUV, f, padding, resolution, *, tight):
-    """Every island of ``f`` packed afresh (new rows appended; the old ones stay, unused): at a common scale as
-    they are (shelf packer, the fallback of :func:`_separate`), or, with ``tight``, each scaled to the
-    layout's median texel density and packed by the tight packer (a layout of its own, e.g. a lightmap)."""
-    from neuraluv.layout.pack import tight_pack
-
-    uvs, tris, parts = [], [], []
-    med = f.median_density or 1.0
-    for j in range(f.n_islands):
-        fj = f.island_faces(j)
-        rows = np.unique(f.FUV[fj])
-        d = f.density[j] if tight and np.isfinite(f.density[j]) else med
-        uvs.append(rotate_to_min_box(UV[rows] * (med / d)))
-        tris.append(np.searchsorted(rows, f.FUV[fj]))
-        parts.append(fj)
-    pk = tight_pack(uvs, tris, padding=padding, resolution=resolution) if tight else \
-        shelf_pack(uvs, tris, padding=padding, resolution=resolution)
-    FUVo = FUV.copy()
-    base = len(UV)
-    new_rows = []
-    for fj, Tl, u in zip(parts, tris, pk.uvs):
-        FUVo[fj] = Tl + base
-        new_rows.append(u)
-        base += len(u)
-    return np.vstack([UV] + new_rows), FUVo

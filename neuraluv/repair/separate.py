@@ -1,0 +1,145 @@
+"""Step 5 of repair: islands that overlap each other, leave the square or are new, moved into free space.
+
+:func:`separate` moves the fewest islands (translated and turned by quarter turns, never
+mirrored, scaled down only when they fit nowhere); under the ``texture`` purpose only new
+islands are placed, in free space or else in an empty unit tile. :func:`repack_all` packs
+every island afresh: the last resort, or a layout of its own (a lightmap in a new UV set).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from neuraluv.layout.facts import layout_facts
+from neuraluv.layout.overlap import triangles_union
+from neuraluv.layout.pack import shelf_pack
+from neuraluv.layout.place import FreeSpace
+from neuraluv.layout.rigid import rotate_to_min_box
+
+__all__ = ["SHRINK_SCALES", "separate", "repack_all"]
+
+#: Uniform scales tried, in order, for an island that fits nowhere at its own size.
+SHRINK_SCALES = (1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3)
+
+
+def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=False):
+    """Move the fewest islands so that none overlaps another or leaves [0,1]²; new islands are placed too.
+
+    ``only_new``: place the new islands in free space and move nothing else (the ``texture`` purpose).
+
+    ``Vn`` is the unit-box mesh. Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action},
+    repacked``.
+    """
+    f = layout_facts(Vn, F, UV, FUV, normalized=True)
+    # map current islands to input islands (-1: new)
+    origin = -np.ones(f.n_islands, np.int64)
+    for j in range(f.n_islands):
+        fj = f.island_faces(j)
+        lab0 = facts0.label[fj]
+        lab0 = lab0[lab0 >= 0]
+        if len(lab0):
+            origin[j] = np.bincount(lab0).argmax()
+    ii, jj, _ = f.overlaps()
+    li, lj = f.label[ii], f.label[jj]
+    cross = li != lj
+    edges = {(int(min(a, b)), int(max(a, b))) for a, b in zip(li[cross], lj[cross])}
+    area = np.bincount(f.label[f.usable], weights=np.abs(np.nan_to_num(f.signed_uv[f.usable])), minlength=f.n_islands)
+    must = set()
+    for j in range(f.n_islands):
+        rows = np.unique(f.FUV[f.island_faces(j)])
+        if origin[j] < 0 or (not only_new and (UV[rows].min() < 0 or UV[rows].max() > 1)):
+            must.add(j)
+    edges = set() if only_new else {e for e in edges if e[0] not in must and e[1] not in must}
+    movers = set(must)
+    while edges:
+        deg = {}
+        for a, b in edges:
+            deg[a] = deg.get(a, 0) + 1
+            deg[b] = deg.get(b, 0) + 1
+        pick = max(deg, key=lambda j: (deg[j], origin[j] in prefer, -area[j]))
+        movers.add(pick)
+        edges = {e for e in edges if pick not in e}
+    if not movers:
+        return UV, FUV, {}, False
+    space = FreeSpace([triangles_union(UV, f.FUV[f.island_faces(j)])[0] for j in range(f.n_islands) if j not in movers],
+                      resolution=resolution, padding=padding)
+    UVo = UV.copy()
+    FUVo = FUV.copy()
+    placements = {}
+    order = sorted(movers, key=lambda j: -area[j])
+    failed = False
+    for j in order:
+        fj = f.island_faces(j)
+        rows = np.unique(f.FUV[fj])
+        T = np.searchsorted(rows, f.FUV[fj])
+        pl = None
+        for scales in ((1.0,), SHRINK_SCALES[1:]):
+            pl = space.place(UVo[rows], T, scales=scales)
+            if pl.uv is not None:
+                break
+        if pl is None or pl.uv is None:
+            failed = True
+            break
+        UVo[rows] = pl.uv
+        space.add(triangles_union(UVo, f.FUV[fj])[0])
+        key = int(origin[j]) if origin[j] >= 0 else -1 - len([k for k in placements if k < 0])
+        placements[key] = {"step": "moved", "quarter_turns": pl.turns, "scale": pl.scale,
+                           "shift": [float(x) for x in pl.shift], "distance": pl.distance,
+                           "why": ("new" if origin[j] < 0 else "outside [0,1]²" if j in must else "overlap")}
+    if not failed:
+        return UVo, FUVo, placements, False
+    if only_new:  # the user's islands never move: the new ones go to a unit tile no island touches
+        return (*_new_islands_in_empty_tile(UV, FUV, f, [j for j in order if origin[j] < 0], padding, resolution),
+                False)
+    # nothing else fits: repack every island at a common scale (reported)
+    UVr, FUVo = repack_all(Vn, F, UV, FUVo, f, padding, resolution, tight=False)
+    placements = {int(origin[j]) if origin[j] >= 0 else -1 - j: {"step": "repacked"} for j in range(f.n_islands)}
+    return UVr, FUVo, placements, True
+
+
+def repack_all(Vn, F, UV, FUV, f, padding, resolution, *, tight):
+    """Every island of ``f`` packed afresh (new rows appended; the old ones stay, unused): at a common scale as
+    they are (shelf packer, the fallback of :func:`separate`), or, with ``tight``, each scaled to the
+    layout's median texel density and packed by the tight packer (a layout of its own, e.g. a lightmap)."""
+    from neuraluv.layout.pack import tight_pack
+
+    uvs, tris, parts = [], [], []
+    med = f.median_density or 1.0
+    for j in range(f.n_islands):
+        fj = f.island_faces(j)
+        rows = np.unique(f.FUV[fj])
+        d = f.density[j] if tight and np.isfinite(f.density[j]) else med
+        uvs.append(rotate_to_min_box(UV[rows] * (med / d)))
+        tris.append(np.searchsorted(rows, f.FUV[fj]))
+        parts.append(fj)
+    pk = tight_pack(uvs, tris, padding=padding, resolution=resolution) if tight else \
+        shelf_pack(uvs, tris, padding=padding, resolution=resolution)
+    FUVo = FUV.copy()
+    base = len(UV)
+    new_rows = []
+    for fj, Tl, u in zip(parts, tris, pk.uvs):
+        FUVo[fj] = Tl + base
+        new_rows.append(u)
+        base += len(u)
+    return np.vstack([UV] + new_rows), FUVo
+
+
+def _new_islands_in_empty_tile(UV, FUV, f, new, padding, resolution):
+    """Shelf-pack the islands ``new`` (labels of ``f``) into the first unit tile ``[k, k+1] × [0, 1]`` to the
+    right of every other island's UVs (placements keyed ``-1, -2, …``), moving no other row."""
+    others = np.setdiff1d(np.arange(f.n_islands), new)
+    used = np.unique(f.FUV[np.isin(f.label, others)]) if len(others) else np.zeros(0, np.int64)
+    k = int(np.floor(UV[used, 0].max())) + 1 if len(used) else 0
+    uvs, tris, rows_of = [], [], []
+    for j in new:
+        rows = np.unique(f.FUV[f.island_faces(j)])
+        uvs.append(rotate_to_min_box(UV[rows]))
+        tris.append(np.searchsorted(rows, f.FUV[f.island_faces(j)]))
+        rows_of.append(rows)
+    pk = shelf_pack(uvs, tris, padding=padding, resolution=resolution)
+    UVo = UV.copy()
+    placements = {}
+    for n, (rows, u) in enumerate(zip(rows_of, pk.uvs)):
+        UVo[rows] = u + [k, 0.0]
+        placements[-1 - n] = {"step": "placed in an empty tile", "tile": [k, 0], "scale": float(pk.scale),
+                              "why": "new; no free space at the layout's density among the user's islands"}
+    return UVo, FUV, placements

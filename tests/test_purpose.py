@@ -1,0 +1,235 @@
+"""What a layout is for decides what is a problem (issue 27): intent kept, damage found and fixed, one verdict.
+
+Procedural layouts with the intentional features of real texture layouts (a mirror modifier's stacked copy,
+tiles outside the unit square, a palette collapse, islands sharing texels) and true damage (folds), judged
+under ``texture`` and ``bake``; a GLB round trip; the real authored assets when they are cached.
+"""
+import json
+
+import numpy as np
+import pytest
+
+from conftest import two_islands, write_layout
+from neuraluv.layout.facts import layout_facts
+from neuraluv.layout.purpose import layout_intent
+from neuraluv.layout.validate import validate_facts
+from neuraluv.repair.diagnose import diagnose_layout
+from neuraluv.repair.repair import repair_layout
+from neuraluv_paper import damage
+
+
+def mirrored_strip(n=8, rows=3):
+    """A strip whose left half is mapped, reversed, onto the right half's texels; the halves share the middle
+    column's vertices and UV rows (a mirror modifier without a UV offset)."""
+    x, y = np.meshgrid(np.arange(-n, n + 1.0), np.arange(rows + 1.0))
+    V = np.c_[x.ravel(), y.ravel(), 0.1 * np.cos(x.ravel())]
+    w = 2 * n + 1
+    q = np.array([[i + w * j, i + 1 + w * j, i + 1 + w * (j + 1), i + w * (j + 1)] for j in range(rows) for i in range(2 * n)])
+    F = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+    UV = np.c_[np.abs(V[:, 0]), V[:, 1]] / (2.0 * max(n, rows)) + 0.05
+    return V, F, UV
+
+
+def intent_layouts():
+    """``name -> (V, F, UV, FUV, feature kinds)``: layouts with only intentional features."""
+    out = {}
+    V, F, UV = mirrored_strip()
+    out["mirrored copy"] = (V, F, UV, F.copy(), {"mirrored"})
+    V2, F2, UV2, FUV2, a, b = two_islands()
+    tiled = UV2.copy()
+    tiled[np.unique(FUV2[b])] += [2.0, 0.0]  # the second island in tile 1003 / a repeating sampler's next tile
+    out["tiles"] = (V2, F2, tiled, FUV2, {"tiles"})
+    stacked = UV2.copy()
+    stacked[np.unique(FUV2[b])] = UV2[np.unique(FUV2[a])]  # two islands on the same texels
+    out["stacked"] = (V2, F2, stacked, FUV2, {"shared_texels"})
+    pal = UV2.copy()
+    pal[np.unique(FUV2[b])] = [0.97, 0.97]  # a flat-coloured part collapsed to one texel
+    out["palette"] = (V2, F2, pal, FUV2, {"palette"})
+    mir = UV2.copy()
+    rows = np.unique(FUV2[b])
+    mir[rows, 0] = 1.5 - mir[rows, 0] - 0.5  # an island mirrored as a whole, in place
+    out["mirrored island"] = (V2, F2, mir, FUV2, {"mirrored"})
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(intent_layouts()))
+def test_intentional_features_are_not_problems_under_texture_and_are_under_bake(name):
+    V, F, UV, FUV, kinds = intent_layouts()[name]
+    d = diagnose_layout(V, F, UV, FUV, purpose="texture")
+    assert d.ok and not d.problems, [p["message"] for p in d.problems]
+    assert kinds <= {p["kind"] for p in d.features}, [p["message"] for p in d.features]
+    assert not diagnose_layout(V, F, UV, FUV, purpose="bake").ok  # a lightmap's rules call each of them a problem
+    res = repair_layout(V, F, UV, FUV, "test", purpose="texture", device="cpu")
+    assert res.unchanged and np.array_equal(res.UV.view(np.int64), np.asarray(UV, float).view(np.int64))
+
+
+def fold_cases():
+    """Damaged layouts: (name, V, F, UV, damaged UV, FUV), a fold in a plain and in a mirrored layout."""
+    from neuraluv.datasets import disk
+    from neuraluv.tutte import tutte
+
+    V, F = disk(n_rings=12)
+    UV = tutte(V, F) * 0.4 + 0.5
+    bad, _ = damage.local_fold(V, F, UV, F, rings=2, seed=3)
+    noisy, _ = damage.vertex_noise(V, F, UV, F, fraction=0.03, seed=1)
+    mUV = UV * [-1.0, 1.0] + [1.0, 0.0]  # the whole island mirrored (intent), then folded
+    mbad, _ = damage.local_fold(V, F, mUV, F, rings=2, seed=3)
+    Vs, Fs, Us = mirrored_strip(n=10, rows=8)
+    sbad, _ = damage.local_fold(Vs, Fs, Us, Fs, rings=1, seed=2, rows=np.flatnonzero(Vs[:, 0] > 2))
+    return [("fold", V, F, UV, bad), ("noise", V, F, UV, noisy), ("fold in a mirrored island", V, F, mUV, mbad),
+            ("fold beside a stacked copy", Vs, Fs, Us, sbad)]
+
+
+@pytest.mark.parametrize("case", range(4))
+def test_folds_are_found_and_repaired_locally_in_the_shells_orientation(case):
+    name, V, F, UV, bad = fold_cases()[case]
+    f0 = layout_facts(V, F, UV, F)
+    f = layout_facts(V, F, bad, F)
+    reversed_by_damage = (f.det * f0.det < 0) & ~f.degenerate3d
+    it = layout_intent(f, "texture")
+    assert reversed_by_damage.any() and not (reversed_by_damage & ~it.fold & ~it.degenerate).any(), name
+    d = diagnose_layout(V, F, bad, F, purpose="texture")
+    assert not d.ok and {p["kind"] for p in d.problems} == {"folded_faces"}
+    res = repair_layout(V, F, bad, F, "test", purpose="texture", device="cpu")
+    assert res.after.ok and res.after.validation["valid"], name
+    assert 1.0 - res.changed_faces.mean() >= 0.6, name
+    # each shell keeps its orientation: a mirrored island stays mirrored, a stacked copy stays stacked
+    after = layout_facts(V, F, res.UV, res.FUV)
+    assert np.array_equal(np.sign(after.det[~f0.degenerate3d]), np.sign(f0.det[~f0.degenerate3d])), name
+    untouched = ~res.changed_faces
+    assert np.array_equal(res.UV[res.FUV[untouched]], bad[F[untouched]])  # bit-identical elsewhere
+
+
+def test_check_repair_and_read_back_agree_on_the_same_layout():
+    # one definition: the diagnosis is ok exactly when the validation (padding aside) is valid, per purpose
+    layouts = list(intent_layouts().values())
+    layouts += [(V, F, bad, F, set()) for _, V, F, _, bad in fold_cases()]
+    V, F, UV, FUV, a, b = two_islands()
+    nan = UV.copy()
+    nan[3] = np.nan
+    layouts.append((V, F, nan, FUV, set()))
+    for V, F, UV, FUV, _ in layouts:
+        for purpose in ("texture", "bake"):
+            f = layout_facts(V, F, UV, FUV)
+            assert diagnose_layout(V, F, UV, FUV, purpose=purpose, facts=f).ok == \
+                validate_facts(f, purpose=purpose, check_padding=False)["valid"]
+
+
+def test_default_purpose_is_printed_and_one_flag_changes_it(tmp_path, capsys):
+    from neuraluv.cli import main
+
+    V, F, UV, FUV, _ = intent_layouts()["mirrored island"]
+    src = tmp_path / "m.obj"
+    write_layout(src, V, F, UV, FUV)
+    text = src.read_text()
+    src.write_text("mtllib m.mtl\nusemtl skin\n" + text)
+    (tmp_path / "m.mtl").write_text("newmtl skin\nmap_Kd skin.png\n")
+    assert main(["check", "--uv", str(src)]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[0] == ("purpose: texture (default: the file references 1 texture; --purpose bake for a "
+                                   "unique layout to bake into)")
+    assert "nothing to repair" in out and "feature: island mirrored as a whole" in out
+    assert main(["check", "--uv", str(src), "--purpose", "bake", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["purpose"] == "bake" and "mirrored_island" in {p["kind"] for p in rep["problems"]}
+
+
+def _glb(tmp_path, UV, V, F, name="a.glb"):
+    """A GLB with a node transform, normals and a textured material (trimesh writes it)."""
+    import trimesh
+    from PIL import Image
+
+    img = Image.fromarray((np.random.default_rng(0).random((8, 8, 3)) * 255).astype(np.uint8))
+    mesh = trimesh.Trimesh(V, F, process=False,
+                           visual=trimesh.visual.TextureVisuals(uv=UV, material=trimesh.visual.material.SimpleMaterial(image=img)))
+    scene = trimesh.Scene()
+    T = trimesh.transformations.rotation_matrix(0.5, [0, 0, 1]) @ trimesh.transformations.scale_matrix(3.0)
+    scene.add_geometry(mesh, transform=T)
+    p = tmp_path / name
+    p.write_bytes(scene.export(file_type="glb"))
+    return p
+
+
+def test_glb_repair_changes_only_the_uv_set(tmp_path, capsys):
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.io.gltf import load_gltf
+
+    name, V, F, UV, bad = fold_cases()[0]
+    src = _glb(tmp_path, bad, V, F)
+    lay = read_gltf_layout(src)
+    assert lay.materials == 1 and lay.textures == 1
+    assert main(["repair", str(src), "-o", str(tmp_path / "r.glb"), "--preset", "test", "--device", "cpu",
+                 "--report", str(tmp_path / "r.json")]) == 0, capsys.readouterr()
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["readback"]["valid"] and r["readback"]["purpose"] == "texture" and r["written"]["mode"] == "replace"
+    a, b = load_gltf(src), load_gltf(tmp_path / "r.glb")
+    assert a.json == b.json  # nodes, transforms, materials, images, accessors: the same document
+    acc = a.json["accessors"][a.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"]]
+    view = a.json["bufferViews"][acc["bufferView"]]
+    lo = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+    hi = lo + acc["count"] * 8
+    diff = np.flatnonzero(np.frombuffer(bytes(a.buffers[0]), np.uint8) != np.frombuffer(bytes(b.buffers[0]), np.uint8))
+    assert len(diff) and diff.min() >= lo and diff.max() < hi  # only bytes of the UV accessor differ
+    assert main(["repair", str(tmp_path / "r.glb"), "-o", str(tmp_path / "s.glb"), "--device", "cpu"]) == 0
+    assert (tmp_path / "s.glb").read_bytes() == (tmp_path / "r.glb").read_bytes()  # a valid layout: byte-identical
+
+
+def test_glb_lightmap_goes_to_a_uv_set_of_its_own(tmp_path, capsys):
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.layout.validate import validate_layout
+
+    V, F, UV, FUV, _ = intent_layouts()["stacked"]
+    src = _glb(tmp_path, UV, V, F)
+    assert main(["repair", str(src), "-o", str(tmp_path / "lm.glb"), "--purpose", "lightmap", "--preset", "test",
+                 "--device", "cpu", "--resolution", "256", "--padding", "2"]) == 0, capsys.readouterr()
+    out = capsys.readouterr().out
+    assert "added UV set TEXCOORD_1; TEXCOORD_0 untouched" in out
+    t0, t0b = read_gltf_layout(src), read_gltf_layout(tmp_path / "lm.glb")
+    assert np.array_equal(t0.UV[t0.FUV], t0b.UV[t0b.FUV]) and np.allclose(t0.V[t0.F], t0b.V[t0b.F])
+    lm = read_gltf_layout(tmp_path / "lm.glb", 1)
+    v = validate_layout(lm.V, lm.F, lm.UV, lm.FUV, padding=2, resolution=256)
+    assert v["valid"] and v["flips"] == 0 and v["overlapping_pairs"] == 0 and v["mirrored_islands"] == 0
+
+
+def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
+    from neuraluv.errors import NeuralUVError
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.io.gltf import _triangles
+
+    assert _triangles(np.arange(5), 6).tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]  # a fan
+    assert _triangles(np.arange(5), 5).tolist() == [[0, 1, 2], [2, 1, 3], [2, 3, 4]]  # a strip keeps its winding
+    (tmp_path / "x.glb").write_bytes(b"glTF\x01\0\0\0")
+    with pytest.raises(NeuralUVError, match="truncated|version"):
+        read_gltf_layout(tmp_path / "x.glb")
+    import trimesh
+
+    p = tmp_path / "plain.glb"
+    p.write_bytes(trimesh.creation.box().export(file_type="glb"))
+    with pytest.raises(NeuralUVError, match="no triangle primitive with TEXCOORD_0"):
+        read_gltf_layout(p)
+
+
+AUTHORED_TRIES = ["BoxTextured.glb", "CesiumMilkTruck.glb", "bl_cube_shifted_outside.obj", "bl_cylinder_array_stacked.obj",
+                  "bl_floor_tiled_x4.obj", "bl_spot_udim.obj", "box.obj", "capsule.obj", "ico4uv.obj",
+                  "textured_tetrahedron.obj", "tube.obj", "wallhole.obj"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fname", AUTHORED_TRIES)
+def test_real_layouts_with_only_intent_come_back_byte_identical(fname, tmp_path, capsys):
+    from neuraluv import datasets
+    from neuraluv.cli import main
+
+    try:
+        src = datasets.authored_path(fname)
+        for extra in ("capsule.mtl", "capsule0.jpg", "ico4uv.mtl"):
+            datasets.authored_path(extra)
+    except datasets.DataMissing as exc:
+        pytest.skip(str(exc))
+    out = tmp_path / ("r" + src.suffix)
+    assert main(["check", "--uv", str(src)]) == 0
+    assert "nothing to repair" in capsys.readouterr().out
+    assert main(["repair", str(src), "-o", str(out), "--device", "cpu"]) == 0
+    assert out.read_bytes() == src.read_bytes()
