@@ -160,7 +160,7 @@ def test_glb_repair_changes_only_the_uv_set(tmp_path, capsys):
     lay = read_gltf_layout(src)
     assert lay.materials == 1 and lay.textures == 1
     assert main(["repair", str(src), "-o", str(tmp_path / "r.glb"), "--preset", "test", "--device", "cpu",
-                 "--report", str(tmp_path / "r.json")]) == 0, capsys.readouterr()
+                 "--report", str(tmp_path / "r.json"), "--no-rebake"]) == 0, capsys.readouterr()
     r = json.loads((tmp_path / "r.json").read_text())
     assert r["readback"]["valid"] and r["readback"]["purpose"] == "texture" and r["written"]["mode"] == "replace"
     a, b = load_gltf(src), load_gltf(tmp_path / "r.glb")
@@ -173,6 +173,14 @@ def test_glb_repair_changes_only_the_uv_set(tmp_path, capsys):
     assert len(diff) and diff.min() >= lo and diff.max() < hi  # only bytes of the UV accessor differ
     assert main(["repair", str(tmp_path / "r.glb"), "-o", str(tmp_path / "s.glb"), "--device", "cpu"]) == 0
     assert (tmp_path / "s.glb").read_bytes() == (tmp_path / "r.glb").read_bytes()  # a valid layout: byte-identical
+    # with the texture re-baked: the image is replaced inside the GLB, the change measured
+    assert main(["repair", str(src), "-o", str(tmp_path / "t.glb"), "--preset", "test", "--device", "cpu",
+                 "--report", str(tmp_path / "t.json")]) == 0
+    t = json.loads((tmp_path / "t.json").read_text())["textures"]
+    assert len(t) == 1 and t[0]["ok"] and t[0]["appearance"]["surface"]["samples"] == 100_000
+    c = load_gltf(tmp_path / "t.glb")
+    assert c.json["images"][0]["bufferView"] != a.json["images"][0]["bufferView"]
+    assert c.json["nodes"] == a.json["nodes"] and c.json["materials"] == a.json["materials"]
 
 
 def test_glb_lightmap_goes_to_a_uv_set_of_its_own(tmp_path, capsys):
@@ -233,3 +241,52 @@ def test_real_layouts_with_only_intent_come_back_byte_identical(fname, tmp_path,
     assert "nothing to repair" in capsys.readouterr().out
     assert main(["repair", str(src), "-o", str(out), "--device", "cpu"]) == 0
     assert out.read_bytes() == src.read_bytes()
+
+
+def test_rebake_carries_a_texture_to_a_moved_island():
+    from neuraluv.repair.rebake import appearance_change, rebake_image
+
+    V, F, UV, FUV, a, b = two_islands()
+    yy, xx = np.mgrid[0:256, 0:256]
+    checker = np.stack([(xx // 16 + yy // 16) % 2 * 200 + 20, xx, yy], -1).astype(np.uint8)
+    smooth = np.stack([xx, yy, 128 + 100 * np.sin(xx / 9.0) * np.cos(yy / 13.0)], -1).astype(np.uint8)
+    changed = np.zeros(len(F), bool)
+    changed[b] = True
+    rows = np.unique(FUV[b])
+    for img, dv, limit in ((checker, -72 / 256, 0.1), (smooth, -0.28, 1.0)):  # by whole texels; by a fraction
+        new = UV.copy()
+        new[rows] += [0.0, dv]  # the island moved into free space below (as a repair may move it)
+        out, info = rebake_image(img, UV, FUV, new, FUV, changed)
+        assert info["texels_written"] > 1000
+        moved = appearance_change(V, F, img, UV, FUV, img, new, FUV, samples=20000)
+        kept = appearance_change(V, F, img, UV, FUV, out, new, FUV, samples=20000)
+        assert moved["mean"] > 20 and kept["mean"] < limit, (moved, kept)
+
+
+def test_repair_of_a_textured_obj_writes_its_own_material_and_rebaked_image(tmp_path, capsys):
+    from PIL import Image
+
+    from neuraluv.cli import main
+
+    name, V, F, UV, bad = fold_cases()[0]
+    src = tmp_path / "in" / "a.obj"
+    src.parent.mkdir()
+    write_layout(src, V, F, bad, F)
+    src.write_text("mtllib a.mtl\nusemtl skin\n" + src.read_text())
+    (src.parent / "a.mtl").write_text("newmtl skin\nKd 1 1 1\nmap_Kd skin tex.png\n")
+    yy, xx = np.mgrid[0:128, 0:128]
+    Image.fromarray(np.stack([xx * 2, yy * 2, (xx + yy) % 256], -1).astype(np.uint8)).save(src.parent / "skin tex.png")
+    before = {p.name: p.read_bytes() for p in src.parent.iterdir()}
+    out = tmp_path / "out" / "b.obj"
+    out.parent.mkdir()
+    assert main(["repair", str(src), "-o", str(out), "--preset", "test", "--device", "cpu", "--report",
+                 str(tmp_path / "r.json")]) == 0, capsys.readouterr()
+    assert {p.name: p.read_bytes() for p in src.parent.iterdir()} == before  # the input's files untouched
+    assert (out.parent / "b.mtl").read_text() == "newmtl skin\nKd 1 1 1\nmap_Kd b.skin_tex.png\n"
+    assert out.read_text().splitlines()[0] == "mtllib b.mtl"
+    t = json.loads((tmp_path / "r.json").read_text())["textures"]
+    assert len(t) == 1 and t[0]["ok"] and t[0]["appearance"]["surface"]["mean"] < 1.0
+    assert Image.open(out.parent / "b.skin_tex.png").size == (128, 128)
+    assert main(["repair", str(src), "-o", str(tmp_path / "out" / "c.obj"), "--preset", "test", "--device", "cpu",
+                 "--no-rebake"]) == 0
+    assert not (tmp_path / "out" / "c.mtl").exists()

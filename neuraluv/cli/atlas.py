@@ -222,6 +222,11 @@ def cmd_repair(args):
     else:
         write_atlas(out, res.V, res.F, res.UV, res.FUV)
         written = {"format": out.suffix.lower()}
+    textures = []
+    if purpose == "texture" and not res.unchanged and not args.no_rebake and not add:
+        from neuraluv.repair.textures import carry_textures
+
+        textures = carry_textures(inp, out, data, res, uv_set=args.uv_set)
     # the verdict is taken on the written file, by the same purpose's rules as the check
     try:
         if gltf and out.suffix.lower() == ".glb":
@@ -237,6 +242,7 @@ def cmd_repair(args):
     rep = res.report()
     rep["purpose"] = {"purpose": purpose, "reason": why}
     rep["written"] = written
+    rep["textures"] = textures
     rep["readback"] = back
     if args.report:
         write_json(args.report, rep)
@@ -253,6 +259,15 @@ def cmd_repair(args):
             fig.savefig(fh, format="png", dpi=110)
         plt.close(fig)
     print(f"wrote {out}: {res.summary()}")
+    for t in textures:
+        if "skipped" in t:
+            print(f"  texture {t['image']}: not re-baked, {t['skipped']}")
+        else:
+            a, c = t["appearance"]["surface"], t["appearance"]["changed_faces"]
+            print(f"  re-baked {t['image']} -> {t['written']}: colour change over the surface mean {a['mean']:.3f}, "
+                  f"p99 {a['p99']:.2f}; over the changed faces mean {c['mean']:.2f}, p99 {c['p99']:.1f} "
+                  f"(8-bit RGB distance, {a['samples']:,} samples each)"
+                  + ("" if t["ok"] else " — above the 1-level mean we hold a re-bake to: inspect it"))
     if gltf and isinstance(written, dict) and "texcoord" in written:
         print(f"  {'added' if add else 'replaced'} UV set TEXCOORD_{read_set}"
               + (f"; TEXCOORD_{args.uv_set} untouched" if add else "")
@@ -348,6 +363,9 @@ def register(sub):
     r.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     r.add_argument("--padding", type=nonneg_float, default=2.0, help="gap kept around moved and new islands, in texels (default 2)")
     _purpose_option(r, "")
+    r.add_argument("--no-rebake", action="store_true",
+                   help="do not re-bake the textures whose UVs changed (by default each image is redrawn for the new "
+                        "layout, written beside / into the output, and the colour change is measured)")
     r.add_argument("--uv-set", type=int, default=0, metavar="N", help="glTF: the UV set TEXCOORD_N to repair (default 0)")
     r.add_argument("--replace-uvs", action="store_true",
                    help="glTF under --purpose bake/lightmap: overwrite the UV set read instead of adding the new "

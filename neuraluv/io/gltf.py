@@ -33,7 +33,7 @@ import numpy as np
 from neuraluv.errors import NeuralUVError
 from neuraluv.io.files import atomic_write
 
-__all__ = ["GltfLayout", "read_gltf_layout", "write_gltf_uvs", "load_gltf"]
+__all__ = ["GltfLayout", "read_gltf_layout", "write_gltf_uvs", "load_gltf", "image_bytes", "replace_images"]
 
 _DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
@@ -421,3 +421,28 @@ def _write_glb(doc, dst, keep_json=False):
         chunks += struct.pack("<II", len(binary), _BIN) + binary
     with atomic_write(dst, "wb") as fh:
         fh.write(struct.pack("<III", _GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
+
+
+def image_bytes(doc, i):
+    """The encoded bytes of image ``i`` (from its bufferView, a data URI or a file beside the glTF)."""
+    im = doc.json["images"][i]
+    if "bufferView" in im:
+        bv = doc.json["bufferViews"][im["bufferView"]]
+        start = bv.get("byteOffset", 0)
+        return bytes(doc.buffers[bv["buffer"]][start:start + bv["byteLength"]])
+    return bytes(_external(doc.path, {"uri": im.get("uri", "")}))
+
+
+def replace_images(src, dst, images):
+    """Write a GLB copy of ``src`` whose images ``{index: PNG bytes}`` are replaced (appended to the binary
+    chunk; the old data stays, unused); every other byte of the document is kept."""
+    doc = load_gltf(src)
+    if not doc.glb or len(doc.buffers) != 1:
+        raise NeuralUVError("replacing images needs a GLB with its one buffer inside")
+    for i, data in images.items():
+        im = doc.json["images"][i]
+        im.pop("uri", None)
+        im["bufferView"] = _append(doc, data)
+        im["mimeType"] = "image/png"
+    doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+    _write_glb(doc, dst)

@@ -1,0 +1,199 @@
+"""The textures of a repaired file carried over to its new layout (``neuraluv repair``; ``--no-rebake`` skips).
+
+:func:`carry_textures` finds the images the repaired UVs are read with — an OBJ's
+material maps (``map_Kd``, ``map_Ks``, ``map_Bump``, …, in the ``mtllib`` files beside
+it), a glTF's base colour, metallic-roughness, normal, occlusion and emissive textures
+of the repaired primitives' materials on that UV set — re-bakes each from the old
+layout to the new one (:func:`~neuraluv.repair.rebake.rebake_image`), writes them, and
+measures the appearance change (:func:`~neuraluv.repair.rebake.appearance_change`).
+
+Where they go: an OBJ ``OUT.obj`` gets ``OUT.mtl`` (a copy of its material file with
+the map lines pointing at the re-baked ``OUT.<image>.png``; every other line kept) and
+its ``mtllib`` line points there — the input's files are never touched. A GLB gets the
+re-baked PNGs inside it, in place of the images they replace.
+"""
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from neuraluv.io import atomic_write
+from neuraluv.repair.rebake import appearance_change, rebake_image
+
+__all__ = ["carry_textures", "obj_texture_maps", "APPEARANCE_LIMIT"]
+
+#: The appearance change a re-bake is held to: mean colour difference over the whole textured surface, in
+#: 8-bit RGB units (one level of 255 is below what a viewer can see). The figures over the changed faces
+#: alone are reported beside it: a fold's faces shared texels with their neighbours, and after repair
+#: they can only take the texels no unchanged face uses, so they may differ more where the fold was.
+APPEARANCE_LIMIT = 1.0
+
+_MAP_KEYS = (b"map_ka", b"map_kd", b"map_ks", b"map_ke", b"map_ns", b"map_d", b"map_bump", b"bump", b"norm",
+             b"disp", b"decal", b"map_pr", b"map_pm", b"map_ps")
+
+
+def _map_name(rest):
+    """The file name of a map line's remainder (options such as ``-bm 1`` come first)."""
+    rest = rest.strip()
+    return rest.split()[-1] if rest.startswith(b"-") else rest
+
+
+def obj_texture_maps(obj_path, raw_lines):
+    """``[(mtl path, [(line index, key, image name)])]`` for the ``mtllib`` files of an OBJ (those found)."""
+    out = []
+    for line in raw_lines:
+        tok = line.encode("utf-8") if isinstance(line, str) else line
+        parts = tok.split(None, 1)
+        if len(parts) == 2 and parts[0] == b"mtllib":
+            lib = Path(obj_path).parent / parts[1].strip().decode("utf-8", "replace")
+            if not lib.is_file():
+                continue
+            maps = []
+            for k, ml in enumerate(lib.read_bytes().splitlines()):
+                p = ml.split(None, 1)
+                if len(p) == 2 and p[0].lower() in _MAP_KEYS:
+                    maps.append((k, p[0], _map_name(p[1]).decode("utf-8", "replace")))
+            out.append((lib, maps))
+    return out
+
+
+def _load(path):
+    from PIL import Image
+
+    with Image.open(path) as im:
+        im.load()
+        return np.asarray(im)
+
+
+def _png(arr):
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(arr).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def _measure(res, img0, img1):
+    ch = res.changed_faces
+    whole = appearance_change(res.V, res.F, img0, res.UV_in, res.FUV_in, img1, res.UV, res.FUV)
+    part = appearance_change(res.V, res.F[ch], img0, res.UV_in, res.FUV_in[ch], img1, res.UV, res.FUV[ch]) \
+        if ch.any() else whole
+    return {"surface": whole, "changed_faces": part}
+
+
+def carry_textures(inp, out, data, res, *, uv_set=0):
+    """Re-bake the images that read the repaired UVs; write them beside / into ``out``; measure the change.
+
+    Parameters
+    ----------
+    inp, out : paths of the input and of the repaired file (already written)
+    data : the reader's data (:class:`~neuraluv.io.ObjData` with its lines, or :class:`~neuraluv.io.GltfLayout`)
+    res : :class:`~neuraluv.repair.repair.RepairResult`
+    uv_set : int, the glTF UV set that was repaired
+
+    Returns
+    -------
+    list of dict, one per re-baked image: ``image``, ``written``, ``texels_written``, ``appearance``
+    (``surface`` and ``changed_faces``: :func:`~neuraluv.repair.rebake.appearance_change`), ``ok`` (mean over
+    the surface within :data:`APPEARANCE_LIMIT`); and ``skipped`` entries for images that could not be read.
+    """
+    if res.unchanged:
+        return []
+    inp, out = Path(inp), Path(out)
+    if out.suffix.lower() == ".obj" and hasattr(data, "notes"):
+        return _carry_obj(inp, out, data, res)
+    if out.suffix.lower() == ".glb" and hasattr(data, "doc"):
+        return _carry_glb(out, data, res, uv_set)
+    return []
+
+
+def _carry_obj(inp, out, data, res):
+    report = []
+    libs = obj_texture_maps(inp, data.notes["raw"])
+    if not any(maps for _, maps in libs):
+        return report
+    new_lib_names = {}
+    for lib, maps in libs:
+        lines = lib.read_bytes().splitlines(keepends=True)
+        baked = {}
+        for k, key, name in maps:
+            src = lib.parent / name
+            if name not in baked:
+                try:
+                    img0 = _load(src)
+                except Exception as exc:  # noqa: BLE001 - an unreadable image: say so, carry on
+                    report.append({"image": name, "skipped": f"could not read ({type(exc).__name__})"})
+                    baked[name] = None
+                    continue
+                img1, info = rebake_image(img0, res.UV_in, res.FUV_in, res.UV, res.FUV, res.changed_faces)
+                dst = out.parent / f"{out.stem}.{Path(name).stem}.png".replace(" ", "_")
+                with atomic_write(dst, "wb") as fh:
+                    fh.write(_png(img1))
+                app = _measure(res, img0, img1)
+                baked[name] = dst.name
+                report.append({"image": name, "written": str(dst), "texels_written": info["texels_written"],
+                               "appearance": app, "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT})
+            if baked.get(name):
+                ending = lines[k][len(lines[k].rstrip(b"\r\n")):]
+                lines[k] = lines[k][: len(lines[k]) - len(lines[k].lstrip())] + key + b" " \
+                    + baked[name].encode("utf-8") + ending
+        new_name = f"{out.stem}.mtl" if len(libs) == 1 else f"{out.stem}.{lib.stem}.mtl"
+        with atomic_write(out.parent / new_name, "wb") as fh:
+            fh.write(b"".join(lines))
+        new_lib_names[lib.name] = new_name
+    # the output's mtllib lines point at the new material files (the only other lines that change)
+    text = out.read_bytes().splitlines(keepends=True)
+    for i, line in enumerate(text):
+        p = line.split(None, 1)
+        if len(p) == 2 and p[0] == b"mtllib":
+            old = p[1].strip().decode("utf-8", "replace")
+            if Path(old).name in new_lib_names:
+                ending = line[len(line.rstrip(b"\r\n")):]
+                text[i] = b"mtllib " + new_lib_names[Path(old).name].encode("utf-8") + ending
+    with atomic_write(out, "wb") as fh:
+        fh.write(b"".join(text))
+    return report
+
+
+def _carry_glb(out, data, res, uv_set):
+    from neuraluv.io.gltf import load_gltf, replace_images
+
+    doc = load_gltf(out)
+    mats = {doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]].get("material") for b in data.blocks}
+    used = {}
+    for m in mats:
+        if m is None:
+            continue
+        mat = doc.json["materials"][m]
+        pbr = mat.get("pbrMetallicRoughness", {})
+        for ti in (pbr.get("baseColorTexture"), pbr.get("metallicRoughnessTexture"), mat.get("normalTexture"),
+                   mat.get("occlusionTexture"), mat.get("emissiveTexture")):
+            if ti and ti.get("texCoord", 0) == uv_set:
+                src = doc.json["textures"][ti["index"]].get("source")
+                if src is not None:
+                    used[src] = True
+    report, new = [], {}
+    for img_i in sorted(used):
+        im = doc.json["images"][img_i]
+        try:
+            from PIL import Image
+
+            from neuraluv.io.gltf import image_bytes
+
+            with Image.open(io.BytesIO(image_bytes(doc, img_i))) as pil:
+                pil.load()
+                img0 = np.asarray(pil)
+        except Exception as exc:  # noqa: BLE001 - an unreadable image: say so, carry on
+            report.append({"image": im.get("name", f"image {img_i}"), "skipped": f"could not read ({type(exc).__name__})"})
+            continue
+        img1, info = rebake_image(img0, res.UV_in, res.FUV_in, res.UV, res.FUV, res.changed_faces)
+        new[img_i] = _png(img1)
+        app = _measure(res, img0, img1)
+        report.append({"image": im.get("name", f"image {img_i}"), "written": f"{out.name} (image {img_i}, PNG)",
+                       "texels_written": info["texels_written"], "appearance": app,
+                       "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT})
+    if new:
+        replace_images(out, out, new)
+    return report
