@@ -139,7 +139,8 @@ def _glb(tmp_path, UV, V, F, name="a.glb"):
     import trimesh
     from PIL import Image
 
-    img = Image.fromarray((np.random.default_rng(0).random((8, 8, 3)) * 255).astype(np.uint8))
+    yy, xx = np.mgrid[0:256, 0:256]
+    img = Image.fromarray(np.stack([xx, yy, 128 + 100 * np.sin(xx / 9.0)], -1).astype(np.uint8))
     mesh = trimesh.Trimesh(V, F, process=False,
                            visual=trimesh.visual.TextureVisuals(uv=UV, material=trimesh.visual.material.SimpleMaterial(image=img)))
     scene = trimesh.Scene()
