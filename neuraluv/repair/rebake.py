@@ -102,8 +102,9 @@ def rebake_image(image, UV0, FUV0, UV1, FUV1, changed):
     img = np.asarray(image)
     out = img.copy()
     H, W = img.shape[:2]
-    changed = np.flatnonzero(changed)
-    keep = np.setdiff1d(np.arange(len(FUV1)), changed)
+    keep = np.flatnonzero(~np.asarray(changed, bool))
+    # a face without finite old UVs had no colour to carry (its new texels are left as they were)
+    changed = np.flatnonzero(np.asarray(changed, bool) & np.isfinite(np.asarray(UV0, float)[np.asarray(FUV0)]).all((1, 2)))
     written = 0
     if not len(changed):
         return out, {"texels_written": 0, "faces": 0}
@@ -114,7 +115,7 @@ def rebake_image(image, UV0, FUV0, UV1, FUV1, changed):
         tri = T1[FUV1[f]]
         lo = np.floor(tri.min(0) - 0.5 - BLEED).astype(np.int64)
         hi = np.ceil(tri.max(0) - 0.5 + BLEED).astype(np.int64)
-        if (hi - lo).prod() > 4 * H * W:  # a face wider than the whole image several times over: skip
+        if (hi - lo).prod() > 16 * H * W + 4096:  # a face over the whole image many times (a tiled layout): skip
             continue
         xs, ys = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
         P = np.c_[xs.ravel() + 0.5, ys.ravel() + 0.5]
@@ -172,7 +173,7 @@ def appearance_change(V, F, image0, UV0, FUV0, image1, UV1, FUV1, *, samples=100
     Returns
     -------
     dict: ``mean``, ``p99``, ``max``, ``share_changed`` (points whose colour moved by more than
-    one 8-bit level), ``samples``, ``unit``.
+    one 8-bit level), ``samples`` (points on faces with finite UVs before and after), ``unit``.
 
     Examples
     --------
@@ -190,9 +191,13 @@ def appearance_change(V, F, image0, UV0, FUV0, image1, UV1, FUV1, *, samples=100
     r1, r2 = rng.random(samples), rng.random(samples)
     s = np.sqrt(r1)
     b = np.c_[1 - s, s * (1 - r2), s * r2]
-    c0 = sample_image(image0, np.einsum("kj,kjd->kd", b, np.asarray(UV0, float)[np.asarray(FUV0)[f]]))
-    c1 = sample_image(image1, np.einsum("kj,kjd->kd", b, np.asarray(UV1, float)[np.asarray(FUV1)[f]]))
+    u0 = np.einsum("kj,kjd->kd", b, np.asarray(UV0, float)[np.asarray(FUV0)[f]])
+    u1 = np.einsum("kj,kjd->kd", b, np.asarray(UV1, float)[np.asarray(FUV1)[f]])
+    ok = np.isfinite(u0).all(1) & np.isfinite(u1).all(1)  # a face with no finite old UVs had no appearance
+    if not ok.any():
+        return {"mean": 0.0, "p99": 0.0, "max": 0.0, "share_changed": 0.0, "samples": 0, "unit": "8-bit RGB"}
+    c0, c1 = sample_image(image0, u0[ok]), sample_image(image1, u1[ok])
     scale = 255.0 if not np.issubdtype(np.asarray(image0).dtype, np.integer) and float(np.max(image0)) <= 1.0 else 1.0
     d = np.linalg.norm((c1 - c0) * scale, axis=1)
     return {"mean": float(d.mean()), "p99": float(np.percentile(d, 99)), "max": float(d.max()),
-            "share_changed": float((d > 1.0).mean()), "samples": int(samples), "unit": "8-bit RGB"}
+            "share_changed": float((d > 1.0).mean()), "samples": int(ok.sum()), "unit": "8-bit RGB"}

@@ -397,7 +397,21 @@ def _whole_island(Vn, F, UV, FUV, faces, density, cfg, *, neural, seed, device, 
 
 
 def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
-    """Charts for the faces ``lost`` (no usable UVs), solved by the atlas router, appended as new rows."""
+    """Charts for the faces ``lost`` (no usable UVs), solved by the atlas router, appended as new rows.
+
+    Lost faces without 3D area have no map to solve: their three corners get one new row (a point: no UV
+    area, so no overlap), as ``check --uv`` leaves such faces' UVs alone.
+    """
+    flat = face_areas(Vn, F[lost]) <= DEGENERATE_3D_AREA
+    UV, FUV = np.asarray(UV, float), np.asarray(FUV, np.int64).copy()
+    out0 = []
+    if flat.any():
+        UV = np.vstack([UV, [[0.0, 0.0]]])
+        FUV[lost[flat]] = len(UV) - 1
+        out0.append({"faces": int(flat.sum()), "route": "point", "method": "no 3D area", "reason": "nothing to map"})
+        lost = lost[~flat]
+        if not len(lost):
+            return UV, FUV, out0
     vi, Fl = submesh(F, lost)
     Vl = Vn[vi]
     UVo, FUVo = UV.copy(), FUV.copy()
@@ -414,5 +428,5 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
             UVo = np.vstack([UVo, np.asarray(uv, float) * density])
             FUVo[lost[fl]] = Fp + base
             out.append({"faces": int(len(fl)), "route": route, "method": method, "reason": reason})
-    return UVo, FUVo, out
+    return UVo, FUVo, out0 + out
 

@@ -40,6 +40,7 @@ BENCHMARKS = {
     "speed": "solver speed: network floor, cost split, presets vs libigl SLIM (and --pareto: the fast preset's study)",
     "atlas-quality": "atlas packing, chart count, seams and texel density beside xatlas on the same meshes",
     "repair": "UV repair with minimal change: generated damage and broken layouts, against mouette's untangler",
+    "authored": "check and repair on real authored assets: intent kept, added damage fixed, textures re-baked, lightmaps",
     "generated": "Tables 7-9 (Amara) on the generated set: ours vs Blender's unwraps; --sweep N",
     "baselines": "external baselines (make baselines): our BFF vs the BFF v1.6 binary; OptCuts on 1K-40K xatlas charts",
 }
