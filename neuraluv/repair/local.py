@@ -31,15 +31,16 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from neuraluv.layout.facts import face_clusters, texel_density
+from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, texel_density
 from neuraluv.layout.overlap import overlap_pairs
-from neuraluv.meshfix import normalize_unit_box
+from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.repair.untangle import RegionEnergy, polish, untangle
 from neuraluv.solver.config import get_config
 
 __all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd",
-           "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces", "with_stretched_neighbours"]
+           "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces", "with_stretched_neighbours",
+           "resolve_as_chart"]
 
 #: Ring counts tried around a fold, in order.
 RING_SCHEDULE = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
@@ -286,7 +287,12 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         """Untangle + polish with ``rows`` free: ``(map or None, details)``."""
         free = np.flatnonzero(rows)
         region = graph.faces_touching(rows)
+        region = region[face_areas(Vn, F[region]) > DEGENERATE_3D_AREA]  # no 3D area: no distortion to untangle
         sc = local_scale(rows)
+        rest = np.setdiff1d(cluster, region)  # cluster faces with no free row: they stay as they are
+        if len(rest) and not (face_dets(Vn, F[rest], UV, FUV[rest]) > 0).all():
+            return None, {"region": region, "free": free, "untangle": {"ok": False}, "overlaps": -1, "scale": sc,
+                          "why": "cluster faces outside the region are still folded"}
         out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc)
         ov = region_overlaps(out, FUV, region, island, allowed) if uinfo["ok"] else -1
         det = {"region": region, "free": free, "untangle": uinfo, "overlaps": ov, "scale": sc}
@@ -439,3 +445,53 @@ def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
     cand = np.concatenate([targets, stretched])
     keep = [c for c in face_clusters(FUV, cand) if np.isin(c, targets).any()]
     return np.unique(np.concatenate(keep))
+
+
+def resolve_as_chart(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadline):
+    """Re-solve an island (or shell) as a chart by the atlas router, at ``density``, fitted back to where it was.
+
+    The last resort of a repair: every row of ``faces`` changes. Faces without 3D area are left out (their
+    UVs stay, as ``check --uv`` says: no map of a chart is defined on them). When the router returns one
+    piece on the same rows they are overwritten in place; otherwise the pieces get new rows.
+
+    Returns
+    -------
+    UV, FUV : the layout with the island re-solved
+    info : dict, ``step``, ``pieces``, ``routes``, ``time``
+    """
+    from neuraluv.atlas.candidates import chart_candidates
+    from neuraluv.atlas.routing import route_charts
+    from neuraluv.layout.rigid import rigid_fit
+
+    t0 = time.perf_counter()
+    all_rows = np.unique(FUV[faces])
+    faces = faces[face_areas(Vn, F[faces]) > DEGENERATE_3D_AREA]
+    pieces, routes = [], []
+    if len(faces):
+        T = FUV[faces]
+        rows = np.unique(T)
+        Fc = np.searchsorted(rows, T)
+        Vc = np.zeros((len(rows), 3))
+        Vc[Fc.reshape(-1)[::-1]] = Vn[F[faces].reshape(-1)[::-1]]
+        for ch in route_charts(Vc, Fc, chart_candidates(Vc, Fc), cfg, seed=seed, device=device, deadline=deadline):
+            routes.append({"route": ch.route, "method": ch.method, "reason": ch.reason})
+            for fl, vl, Fl, uv in ch.islands:
+                new = np.asarray(uv, float) * density
+                old = UV[rows[vl]]
+                okp = np.isfinite(old).all(1)
+                if okp.sum() >= 2:
+                    R, _, t = rigid_fit(new[okp], old[okp])
+                    new = new @ R + t
+                pieces.append((faces[fl], new, Fl, rows[vl]))
+    UVo, FUVo = UV.copy(), FUV.copy()
+    if len(pieces) == 1 and len(pieces[0][3]) == len(all_rows) and np.array_equal(np.sort(pieces[0][3]), all_rows):
+        fidx, new, Fl, vrows = pieces[0]
+        UVo[vrows] = new  # same rows, same faces: overwrite in place
+        FUVo[fidx] = vrows[Fl]
+    else:
+        for fidx, new, Fl, _ in pieces:
+            base = len(UVo)
+            UVo = np.vstack([UVo, new])
+            FUVo[fidx] = Fl + base
+    return UVo, FUVo, {"step": "re-solved as a chart", "pieces": len(pieces), "routes": routes,
+                       "time": time.perf_counter() - t0}

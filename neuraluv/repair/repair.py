@@ -38,12 +38,11 @@ from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
 from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, layout_facts
 from neuraluv.layout.purpose import check_purpose
-from neuraluv.layout.rigid import rigid_fit
 from neuraluv.meshfix import face_areas
 from neuraluv.plot import plot_repair
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
-from neuraluv.repair.local import (IslandGraph, face_dets_of, island_esds, repair_cluster, self_overlap_faces,
-                                   untangle_faces, with_stretched_neighbours)
+from neuraluv.repair.local import (IslandGraph, face_dets_of, island_esds, repair_cluster, resolve_as_chart,
+                                   self_overlap_faces, untangle_faces, with_stretched_neighbours)
 from neuraluv.repair.separate import SHRINK_SCALES, repack_all, separate
 from neuraluv.repair.shells import repair_shells
 from neuraluv.solver.config import get_config
@@ -136,36 +135,6 @@ class RepairResult:
     def figure(self, *, title=None):
         """Before / after layouts, changed faces highlighted (matplotlib figure)."""
         return plot_repair(self, title=title)
-
-
-def _resolve_island(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadline):
-    """Re-solve an island as a chart (atlas router), scaled to ``density`` and fitted to where it was.
-
-    Faces without 3D area are left out (their UVs stay as they are, as ``check --uv`` says: no
-    map of a chart is defined on them, and the router would give them none).
-
-    Returns the new rows ``[(face_ids, rows_uv (k,2), local faces (f,3)), ...]`` and the routes.
-    """
-    faces = faces[face_areas(Vn, F[faces]) > DEGENERATE_3D_AREA]
-    if not len(faces):
-        return [], []
-    T = FUV[faces]
-    rows = np.unique(T)
-    Fc = np.searchsorted(rows, T)
-    Vc = np.zeros((len(rows), 3))
-    Vc[Fc.reshape(-1)[::-1]] = Vn[F[faces].reshape(-1)[::-1]]
-    pieces, routes = [], []
-    for ch in route_charts(Vc, Fc, chart_candidates(Vc, Fc), cfg, seed=seed, device=device, deadline=deadline):
-        routes.append({"route": ch.route, "method": ch.method, "reason": ch.reason})
-        for fl, vl, Fl, uv in ch.islands:
-            new = np.asarray(uv, float) * density
-            old = UV[rows[vl]]
-            okp = np.isfinite(old).all(1)
-            if okp.sum() >= 2:
-                R, _, t = rigid_fit(new[okp], old[okp])
-                new = new @ R + t
-            pieces.append((faces[fl], new, Fl, rows[vl]))
-    return pieces, routes
 
 
 def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", threads=None, resolution=1024,
@@ -381,19 +350,7 @@ def _whole_island(Vn, F, UV, FUV, faces, density, cfg, *, neural, seed, device, 
     out, info = untangle_faces(Vn, F, UV, FUV, faces, rows, density)
     if out is not None:
         return out, FUV, {"step": "untangle whole island", "rows": int(len(rows)), "time": time.perf_counter() - t0}
-    pieces, routes = _resolve_island(Vn, F, UV, FUV, faces, density, cfg, seed=seed, device=device, deadline=deadline)
-    UVo, FUVo = UV.copy(), FUV.copy()
-    if len(pieces) == 1 and len(pieces[0][3]) == len(rows) and np.array_equal(np.sort(pieces[0][3]), rows):
-        fidx, new, Fl, vrows = pieces[0]
-        UVo[vrows] = new  # same rows, same faces: overwrite in place
-        FUVo[fidx] = vrows[Fl]
-    else:
-        for fidx, new, Fl, _ in pieces:
-            base = len(UVo)
-            UVo = np.vstack([UVo, new])
-            FUVo[fidx] = Fl + base
-    return UVo, FUVo, {"step": "re-solved as a chart", "pieces": len(pieces), "routes": routes,
-                       "time": time.perf_counter() - t0}
+    return resolve_as_chart(Vn, F, UV, FUV, faces, density, cfg, seed=seed, device=device, deadline=deadline)
 
 
 def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):

@@ -12,8 +12,8 @@ import numpy as np
 from neuraluv.layout.facts import face_clusters
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent
-from neuraluv.repair.local import (IslandGraph, face_dets_of, region_overlaps, repair_cluster, untangle_faces,
-                                   with_stretched_neighbours)
+from neuraluv.repair.local import (IslandGraph, face_dets_of, region_overlaps, repair_cluster, resolve_as_chart,
+                                   untangle_faces, with_stretched_neighbours)
 
 __all__ = ["repair_shells", "intended_overlaps"]
 
@@ -27,7 +27,9 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     stay; a repaired region makes no other overlap. A fold whose rows are all shared with another shell (a
     fold on the seam of a stacked copy) gets copies of those rows for its own shell (same values; the other
     shell keeps the originals) and is repaired on them. A cluster no local region repairs is untangled
-    with the whole shell free (locked rows kept); one that still fails is left as it is and reported.
+    with the whole shell free (locked rows kept); then, for a shell that shares no row with another, the
+    shell is re-solved as a chart and fitted back where it was (with ``neural``); a cluster that still fails
+    is left as it is and reported.
     Returns ``UV, FUV``.
     """
     it = layout_intent(facts, "texture")
@@ -67,6 +69,16 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             if out is None:
                 rows = np.setdiff1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
                 out, info = untangle_faces(Vn, F, work, FUVw, shell, rows, dens, allowed)
+            if out is None and neural and not locked[np.unique(FUVw[shell])].any():
+                # the last resort of a shell of its own: re-solved as a chart, fitted back where it was (every
+                # UV of the shell moves a little; the texture is re-baked)
+                out_uv, out_fuv, info = resolve_as_chart(Vn, F, work, FUVw, shell, dens, cfg, seed=seed,
+                                                         device=device, deadline=deadline)
+                if (face_dets_of(Vn, F, out_uv, out_fuv, cl) > 0).all():
+                    work, FUVw = out_uv, out_fuv
+                    actions[i].append({"step": info["step"], "cluster_faces": int(len(cl)), "time": info["time"],
+                                       "shell": int(k), "pieces": info["pieces"]})
+                    break  # the whole shell is new: its other clusters went with it
             if out is None:
                 actions[i].append({"step": "left folded", "cluster_faces": int(len(cl)),
                                    "reason": "no local region and no untangle of the whole shell was valid"})
