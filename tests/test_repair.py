@@ -245,14 +245,14 @@ def test_an_island_re_solved_as_a_chart_leaves_its_faces_without_3d_area_as_they
     # wallhole.obj (trimesh's tests): a re-solved island holding a face with no 3D area made the router
     # return non-finite UVs for it and the rigid fit fail (internal error "SVD did not converge")
     from neuraluv import datasets
-    from neuraluv.repair.repair import _resolve_island
+    from neuraluv.repair.local import resolve_as_chart
     from neuraluv.solver.config import get_config
     V, F = datasets.spherical_cap(2)
     V = np.vstack([V, V[F[0, 0]]])  # a sliver with no 3D area: two corners at one place
     F = np.vstack([F, [F[0, 0], F[0, 1], len(V) - 1]])
     UV = np.vstack([V[:, :2], [[0.3, 0.3]]])
     faces = np.arange(len(F))
-    pieces, _ = _resolve_island(V, F, UV, F.copy(), faces, 1.0, get_config("test"), seed=0, device="cpu",
-                                deadline=None)
-    assert pieces and all(np.isfinite(new).all() for _, new, _, _ in pieces)
-    assert len(F) - 1 not in np.concatenate([f for f, *_ in pieces])  # the sliver keeps its UVs
+    UV2, FUV2, info = resolve_as_chart(V, F, UV, F.copy(), faces, 1.0, get_config("test"), seed=0, device="cpu",
+                                       deadline=None)
+    assert info["pieces"] and np.isfinite(UV2[FUV2]).all()
+    assert np.array_equal(FUV2[-1], F[-1]) and np.array_equal(UV2[F[-1]], UV[F[-1]])  # the sliver keeps its UVs
