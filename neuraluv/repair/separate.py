@@ -38,10 +38,13 @@ def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=Fa
         lab0 = lab0[lab0 >= 0]
         if len(lab0):
             origin[j] = np.bincount(lab0).argmax()
-    ii, jj, _ = f.overlaps()
-    li, lj = f.label[ii], f.label[jj]
-    cross = li != lj
-    edges = {(int(min(a, b)), int(max(a, b))) for a, b in zip(li[cross], lj[cross])}
+    if only_new:  # the user's islands stay where they are: their overlaps do not matter here
+        edges = set()
+    else:
+        ii, jj, _ = f.overlaps()
+        li, lj = f.label[ii], f.label[jj]
+        cross = li != lj
+        edges = {(int(min(a, b)), int(max(a, b))) for a, b in zip(li[cross], lj[cross])}
     area = np.bincount(f.label[f.usable], weights=np.abs(np.nan_to_num(f.signed_uv[f.usable])), minlength=f.n_islands)
     must = set()
     for j in range(f.n_islands):
