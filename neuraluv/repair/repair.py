@@ -104,17 +104,15 @@ class RepairResult:
                     "left as they were (see the report's actions); the layout was left byte-identical")
         ch = [i for i in self.islands if i["actions"]]
         bit = 1.0 - self.changed_faces.mean() if len(self.changed_faces) else 1.0
-        if b.get("purpose") == "texture":
-            return (f"{len(ch)} of {len(self.islands)} islands changed"
-                    + (f", {len(self.new_charts)} new charts" if self.new_charts else "")
-                    + f"; faces bit-identical {100 * bit:.1f}%; folded faces {a['folded_faces']} -> "
-                    f"{b['folded_faces']}, UV-degenerate {a['degenerate_faces']} -> {b['degenerate_faces']}, "
-                    f"faces without usable UVs {a['faces'] - a['covered_faces'] + a['non_finite_faces']} -> "
-                    f"{b['faces'] - b['covered_faces'] + b['non_finite_faces']} (texture purpose: mirrored, "
-                    f"stacked, tiled and palette shells kept); {self.time:.1f}s")
-        return (f"{len(ch)} of {len(self.islands)} islands changed"
+        head = (f"{len(ch)} of {len(self.islands)} islands changed"
                 + (f", {len(self.new_charts)} new charts" if self.new_charts else "")
-                + f"; faces bit-identical {100 * bit:.1f}%; flips {a['flips']} -> {b['flips']}, "
+                + f"; faces bit-identical {100 * bit:.1f}%; ")
+        if b.get("purpose") == "texture":
+            lost = [v["faces"] - v["covered_faces"] + v["non_finite_faces"] for v in (a, b)]
+            return (head + f"folded faces {a['folded_faces']} -> {b['folded_faces']}, UV-degenerate "
+                    f"{a['degenerate_faces']} -> {b['degenerate_faces']}, faces without usable UVs {lost[0]} -> "
+                    f"{lost[1]} (texture purpose: mirrored, stacked, tiled and palette shells kept); {self.time:.1f}s")
+        return (head + f"flips {a['flips']} -> {b['flips']}, "
                 f"overlapping island pairs {a['overlapping_pairs']} -> {b['overlapping_pairs']}, "
                 f"self-overlapping islands {a['self_overlapping_islands']} -> {b['self_overlapping_islands']}, "
                 f"in [0,1]²: {'yes' if b['uv_in_unit_square'] else 'no'}"
