@@ -104,15 +104,15 @@ def _write_damaged(src, dst, data, UV):
             from neuraluv.io.gltf import load_gltf, _write_glb
 
             doc = load_gltf(dst)
-            b = data.blocks[0]
-            prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
-            acc = doc.json["accessors"][prim["attributes"]["TEXCOORD_0"]]
-            bv = doc.json["bufferViews"][acc["bufferView"]]
-            start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
-            stride = bv.get("byteStride") or 8
-            r0, nr = b["rows"]
-            for r in np.flatnonzero(~np.isfinite(UV[r0:r0 + nr]).all(1)):
-                doc.buffers[0][start + stride * r:start + stride * r + 8] = np.full(2, np.nan, "<f4").tobytes()
+            for b in data.blocks:  # each primitive's own UV accessor holds its rows
+                prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
+                acc = doc.json["accessors"][prim["attributes"]["TEXCOORD_0"]]
+                bv = doc.json["bufferViews"][acc["bufferView"]]
+                start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
+                stride = bv.get("byteStride") or 8
+                r0, nr = b["rows"]
+                for r in np.flatnonzero(~np.isfinite(UV[r0:r0 + nr]).all(1)):
+                    doc.buffers[0][start + stride * r:start + stride * r + 8] = np.full(2, np.nan, "<f4").tobytes()
             _write_glb(doc, dst, keep_json=True)
 
 
