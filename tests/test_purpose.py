@@ -291,3 +291,38 @@ def test_repair_of_a_textured_obj_writes_its_own_material_and_rebaked_image(tmp_
     assert main(["repair", str(src), "-o", str(tmp_path / "out" / "c.obj"), "--preset", "test", "--device", "cpu",
                  "--no-rebake"]) == 0
     assert not (tmp_path / "out" / "c.mtl").exists()
+
+
+def test_hostile_gltf_layouts_get_one_line_or_a_result(tmp_path, capsys):
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.io.gltf import _write_glb, load_gltf
+
+    V, F, UV, FUV, _ = intent_layouts()["mirrored island"]
+    base = _glb(tmp_path, UV, V, F, name="base.glb")
+
+    def variant(name, change):
+        d = load_gltf(base)
+        change(d.json)
+        p = tmp_path / f"{name}.glb"
+        _write_glb(d, p)
+        return p
+
+    prim = lambda j: j["meshes"][0]["primitives"][0]  # noqa: E731
+    fan = variant("fan", lambda j: prim(j).__setitem__("mode", 6))  # trimesh reads no fans; our reader unrolls them
+    assert main(["check", "--uv", str(fan)]) == 0
+    assert main(["repair", str(fan), "-o", str(tmp_path / "f.glb"), "--device", "cpu"]) in (0, 3)
+    assert read_gltf_layout(tmp_path / "f.glb").F.shape == read_gltf_layout(fan).F.shape  # the fan's triangles
+    cyc = variant("cycle", lambda j: j["nodes"][0].setdefault("children", []).append(0))  # a node its own child
+    assert main(["check", "--uv", str(cyc)]) == 0
+    huge = variant("huge", lambda j: j["nodes"][0].update(scale=[1e300] * 3, rotation=[0, 0, 0, 1]))
+    assert main(["repair", str(huge), "-o", str(tmp_path / "h.glb"), "--device", "cpu"]) in (0, 3)  # no overflow
+    capsys.readouterr()
+    (tmp_path / "empty.glb").write_bytes(b"")
+    nan = variant("nan", lambda j: j["nodes"][0].update(matrix=[float("nan")] * 16))
+    past = variant("past", lambda j: j["accessors"][prim(j)["attributes"]["TEXCOORD_0"]].__setitem__("count", 10 ** 9))
+    for bad, why in ((tmp_path / "empty.glb", "is empty"), (nan, "NaN or infinite coordinates"),
+                     (past, "runs past its buffer")):
+        assert main(["check", "--uv", str(bad)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and why in err[0], err

@@ -129,8 +129,8 @@ def _read_layout(inp, uv_set=0):
     (``data``: its :class:`~neuraluv.io.GltfLayout`); one-line errors for everything else."""
     from neuraluv.io import load_mesh, read_gltf_layout, read_obj
 
-    load_mesh(inp)  # one-line errors for missing, empty or garbage files
     if inp.suffix.lower() == ".obj":
+        load_mesh(inp)  # one-line errors for empty or garbage files
         if uv_set:
             raise NeuralUVError("an OBJ has one set of texture coordinates (vt): --uv-set must be 0")
         data = read_obj(inp, keep_lines=True)

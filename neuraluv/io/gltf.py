@@ -53,6 +53,8 @@ def load_gltf(path):
     """The JSON and the buffers of a ``.glb`` or ``.gltf`` file (one-line errors for what is not glTF 2.0)."""
     path = Path(path)
     raw = path.read_bytes()
+    if not raw.strip():
+        raise NeuralUVError(f"{path.name} is empty")
     if raw[:4] == b"glTF":
         if len(raw) < 20:
             raise NeuralUVError(f"{path.name}: truncated GLB header")
@@ -255,7 +257,12 @@ def read_gltf_layout(path, texcoord=0):
         raise NeuralUVError(f"{Path(path).name} has no triangle primitive with {name}"
                             + (f" ({skipped[0]})" if skipped else ""))
     F = np.vstack(Fs).astype(np.int64)
-    return GltfLayout(V=np.vstack(Vs), F=F, UV=np.vstack(Us), FUV=F.copy(), blocks=blocks, skipped=skipped,
+    V = np.vstack(Vs)
+    bad = ~np.isfinite(V).all(1)
+    if bad.any():
+        raise NeuralUVError(f"{Path(path).name} has {int(bad.sum())} vertices with NaN or infinite coordinates "
+                            "(after the node transforms); fix or remove them")
+    return GltfLayout(V=V, F=F, UV=np.vstack(Us), FUV=F.copy(), blocks=blocks, skipped=skipped,
                       texcoord=int(texcoord), doc=doc, materials=len(doc.json.get("materials", [])),
                       textures=len(doc.json.get("textures", [])))
 

@@ -182,7 +182,9 @@ def appearance_change(V, F, image0, UV0, FUV0, image1, UV1, FUV1, *, samples=100
     >>> appearance_change(V, F, img, UV, F, img, UV, F, samples=1000)["max"]
     0.0
     """
-    V, F = np.asarray(V, float), np.asarray(F, np.int64)
+    from neuraluv.meshfix import normalize_unit_box
+
+    V, F = normalize_unit_box(np.asarray(V, float))[0], np.asarray(F, np.int64)  # areas without overflow
     rng = np.random.default_rng(seed)
     a = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
     if not (a > 0).any():
