@@ -116,7 +116,11 @@ class RepairResult:
                 f"overlapping island pairs {a['overlapping_pairs']} -> {b['overlapping_pairs']}, "
                 f"self-overlapping islands {a['self_overlapping_islands']} -> {b['self_overlapping_islands']}, "
                 f"in [0,1]²: {'yes' if b['uv_in_unit_square'] else 'no'}"
-                + ("; repacked" if self.repacked else "") + f"; {self.time:.1f}s")
+                + (f"; repacked ({self._repack_why()})" if self.repacked else "") + f"; {self.time:.1f}s")
+
+    def _repack_why(self):
+        whys = [a["why"] for i in self.islands for a in i["actions"] if a.get("step") == "repacked" and "why" in a]
+        return whys[0] if whys else "a layout of its own"
 
     def report(self):
         """JSON-ready dict: before/after diagnosis, per-island diff, totals."""
@@ -246,7 +250,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                 placements.setdefault(int(np.bincount(lab0).argmax()), {"step": "repacked (a layout of its own)"})
     else:
         UVw, FUVw, placements, repacked = separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding,
-                                                    only_new=purpose == "texture")
+                                                    only_new=purpose == "texture", deadline=deadline)
     for i, pl in placements.items():
         if i >= 0:
             actions[i].append(pl)

@@ -7,6 +7,8 @@ every island afresh: the last resort, or a layout of its own (a lightmap in a ne
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from neuraluv.layout.facts import layout_facts
@@ -21,10 +23,13 @@ __all__ = ["SHRINK_SCALES", "separate", "repack_all"]
 SHRINK_SCALES = (1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3)
 
 
-def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=False):
+def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=False, deadline=None):
     """Move the fewest islands so that none overlaps another or leaves [0,1]²; new islands are placed too.
 
     ``only_new``: place the new islands in free space and move nothing else (the ``texture`` purpose).
+    ``deadline`` (a ``time.perf_counter()`` value): once it has passed, the islands not yet placed are not
+    searched for one by one; the layout is repacked (or, with ``only_new``, the new islands go to an empty
+    tile) — a valid layout within the time budget, reported as ``repacked`` with the reason.
 
     ``Vn`` is the unit-box mesh. Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action},
     repacked``.
@@ -70,7 +75,11 @@ def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=Fa
     placements = {}
     order = sorted(movers, key=lambda j: -area[j])
     failed = False
+    why = "an island fits nowhere at any scale tried"
     for j in order:
+        if deadline is not None and time.perf_counter() > deadline:
+            failed, why = True, "the time budget ran out while moving islands one by one"
+            break
         fj = f.island_faces(j)
         rows = np.unique(f.FUV[fj])
         T = np.searchsorted(rows, f.FUV[fj])
@@ -95,7 +104,8 @@ def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=Fa
                 False)
     # nothing else fits: repack every island at a common scale (reported)
     UVr, FUVo = repack_all(Vn, F, UV, FUVo, f, padding, resolution, tight=False)
-    placements = {int(origin[j]) if origin[j] >= 0 else -1 - j: {"step": "repacked"} for j in range(f.n_islands)}
+    placements = {int(origin[j]) if origin[j] >= 0 else -1 - j: {"step": "repacked", "why": why}
+                  for j in range(f.n_islands)}
     return UVr, FUVo, placements, True
 
 
