@@ -326,3 +326,20 @@ def test_hostile_gltf_layouts_get_one_line_or_a_result(tmp_path, capsys):
         assert main(["check", "--uv", str(bad)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and why in err[0], err
+
+
+def test_a_gltf_with_external_buffers_is_repaired_with_a_note(tmp_path, capsys):
+    import trimesh
+
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+
+    _, V, F, UV, bad = fold_cases()[0]
+    files = trimesh.exchange.gltf.export_gltf(trimesh.Scene(trimesh.Trimesh(
+        V, F, process=False, visual=trimesh.visual.TextureVisuals(uv=bad))))
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    assert main(["repair", str(tmp_path / "model.gltf"), "-o", str(tmp_path / "o.glb"), "--device", "cpu"]) == 0
+    out = capsys.readouterr().out
+    assert "keeps positions and UVs only" in out and "re-baked" not in out
+    assert read_gltf_layout(tmp_path / "o.glb").F.shape == F.shape

@@ -197,15 +197,21 @@ def cmd_repair(args):
     purpose, why = _purpose(args, inp, data)
     print(f"purpose: {purpose} ({why})")
     gltf = isinstance(data, GltfLayout)
-    add = gltf and purpose != "texture" and not args.replace_uvs  # a lightmap goes to a UV set of its own
+    # a GLB (its one buffer inside) is written back byte for byte but its UVs; a .gltf with external buffers is
+    # re-exported with positions and UVs only
+    patchable = gltf and data.doc.glb and len(data.doc.buffers) <= 1 and out.suffix.lower() == ".glb"
+    if gltf and not patchable and out.suffix.lower() == ".glb":
+        print(f"  note: {inp.name} is not a GLB with its buffer inside: the output keeps positions and UVs only "
+              "(convert it to .glb first to keep nodes, normals, materials and other UV sets)")
+    add = patchable and purpose != "texture" and not args.replace_uvs  # a lightmap goes to a UV set of its own
     res = repair_layout(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device, threads=args.threads,
                         resolution=args.resolution, padding=args.padding, time_budget=args.time_budget or None,
-                        neural=not args.no_neural, purpose=purpose, repack=add and out.suffix.lower() == ".glb",
+                        neural=not args.no_neural, purpose=purpose, repack=add,
                         **_overrides(args))
     read_set = args.uv_set
     if data is not None and not gltf and out.suffix.lower() == ".obj":
         written = patch_obj(inp, out, res.UV, res.FUV, data=data)  # every other line of the input kept byte for byte
-    elif gltf and out.suffix.lower() == ".glb" and (add or not res.unchanged):
+    elif patchable and (add or not res.unchanged):
         try:  # every byte but the UV set kept: nodes, transforms, normals, materials, other UV sets
             written = write_gltf_uvs(data, res.UV, res.FUV, out, mode="add" if add else "replace")
         except NeuralUVError as exc:
@@ -223,7 +229,8 @@ def cmd_repair(args):
         write_atlas(out, res.V, res.F, res.UV, res.FUV)
         written = {"format": out.suffix.lower()}
     textures = []
-    if purpose == "texture" and not res.unchanged and not args.no_rebake and not add:
+    kept_asset = patchable or (data is not None and not gltf and out.suffix.lower() == ".obj")
+    if purpose == "texture" and not res.unchanged and not args.no_rebake and not add and kept_asset:
         from neuraluv.repair.textures import carry_textures
 
         textures = carry_textures(inp, out, data, res, uv_set=args.uv_set)
