@@ -38,7 +38,7 @@ def main(argv=None):
         print(f"purpose_figure: {exc}")
         return 2
     V, F, UV, FUV = read_obj(path)
-    it = layout_intent(layout_facts(V, F, UV, FUV), "texture")
+    it = layout_intent(layout_facts(V, F, UV, FUV))
     res = {p: repair_layout(V, F, UV, FUV, "fast", purpose=p, device="cpu") for p in ("texture", "bake")}
     fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.8))
     panels = [("as made: a mirrored island (blue), a fold (red)", UV, FUV, None),

@@ -14,7 +14,7 @@ import sys
 import numpy as np
 
 from neuraluv import datasets
-from neuraluv.io import read_gltf_layout, read_obj
+from neuraluv.io import read_layout
 from neuraluv.layout.facts import layout_facts
 from neuraluv.layout.purpose import layout_intent
 from neuraluv_paper import damage
@@ -32,11 +32,7 @@ def main():
         except datasets.DataMissing as exc:
             print(f"purpose_fold_recall: {exc}")
             return 2
-        if path.suffix == ".glb":
-            lay = read_gltf_layout(path)
-            V, F, UV, FUV = lay.V, lay.F, lay.UV, lay.FUV
-        else:
-            V, F, UV, FUV = read_obj(path)
+        V, F, UV, FUV, _ = read_layout(path)
         f0 = layout_facts(V, F, UV, FUV)
         big = np.argmax(np.bincount(f0.label[f0.label >= 0]))
         rows = np.unique(FUV[f0.island_faces(big)])
@@ -51,7 +47,7 @@ def main():
                 except ValueError:  # the island is too small for this fold
                     continue
                 f = layout_facts(V, F, uv, FUV)
-                it = layout_intent(f, "texture")
+                it = layout_intent(f)
                 reversed_ = (f.det * f0.det < 0) & ~f.degenerate3d
                 missed = reversed_ & ~it.fold & ~it.degenerate
                 n += 1

@@ -15,11 +15,20 @@ from scipy.sparse.csgraph import connected_components
 
 __all__ = [
     "TopologyReport", "topology_scan", "is_disk_like", "vertex_components", "split_components", "components",
-    "face_components", "faces_sharing", "edge_face_counts", "submesh", "boundary_loop", "bisect_faces",
+    "face_components", "faces_sharing", "edge_face_counts", "undirected_edges", "submesh", "boundary_loop", "bisect_faces",
 ]
 
 
-def _undirected_edges(F):
+def undirected_edges(F):
+    """The three edges of every face, as given and with sorted endpoints: ``(E, Es)``, each (3m,2).
+
+    Row ``k·m + f`` is edge ``k`` (0: corners 0-1, 1: 1-2, 2: 2-0) of face ``f``.
+
+    Examples
+    --------
+    >>> undirected_edges(np.array([[2, 0, 1]]))[1].tolist()
+    [[0, 2], [0, 1], [1, 2]]
+    """
     E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
     return E, np.sort(E, axis=1)
 
@@ -44,7 +53,7 @@ def edge_face_counts(F):
     (4, 1)
     """
     F = np.asarray(F, np.int64)
-    _, Es = _undirected_edges(F)
+    _, Es = undirected_edges(F)
     E, counts = np.unique(Es, axis=0, return_counts=True)
     return E, counts
 
@@ -58,7 +67,7 @@ def vertex_components(n, F):
     labels : (n,) int array
     """
     F = np.asarray(F, np.int64)
-    E, _ = _undirected_edges(F)
+    E, _ = undirected_edges(F)
     A = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
     return connected_components(A, directed=False)
 
@@ -138,7 +147,7 @@ def face_components(F):
     [0, 1, 0]
     """
     F = np.asarray(F, np.int64)
-    _, Es = _undirected_edges(F)
+    _, Es = undirected_edges(F)
     return faces_sharing(Es, np.tile(np.arange(len(F)), 3), len(F))
 
 
@@ -382,7 +391,7 @@ def topology_scan(V, F):
     V = np.asarray(V, float)
     F = np.asarray(F, np.int64)
     n = len(V)
-    Ed, Es = _undirected_edges(F)
+    Ed, Es = undirected_edges(F)
     E, inv, counts = np.unique(Es, axis=0, return_inverse=True, return_counts=True)
     inv = inv.reshape(-1)
     nonmanifold_edges = int((counts > 2).sum())

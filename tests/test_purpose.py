@@ -86,7 +86,7 @@ def test_folds_are_found_and_repaired_locally_in_the_shells_orientation(case):
     f0 = layout_facts(V, F, UV, F)
     f = layout_facts(V, F, bad, F)
     reversed_by_damage = (f.det * f0.det < 0) & ~f.degenerate3d
-    it = layout_intent(f, "texture")
+    it = layout_intent(f)
     assert reversed_by_damage.any() and not (reversed_by_damage & ~it.fold & ~it.degenerate).any(), name
     d = diagnose_layout(V, F, bad, F, purpose="texture")
     assert not d.ok and {p["kind"] for p in d.problems} == {"folded_faces"}

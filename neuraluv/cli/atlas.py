@@ -9,7 +9,6 @@ layout); ``neuraluv atlas IN -o OUT.obj|glb`` builds a validated atlas;
 from __future__ import annotations
 
 import json
-import struct
 import sys
 from pathlib import Path
 
@@ -124,29 +123,6 @@ def _print_fallbacks(totals, args):
               f"--time-budget (0: none) solves them all")
 
 
-def _read_layout(inp, uv_set=0):
-    """``(V, F, UV, FUV, data)`` of a textured OBJ (``data``: its :class:`~neuraluv.io.ObjData`) or glTF / GLB
-    (``data``: its :class:`~neuraluv.io.GltfLayout`); one-line errors for everything else."""
-    from neuraluv.io import load_mesh, read_gltf_layout, read_obj
-
-    if inp.suffix.lower() == ".obj":
-        load_mesh(inp)  # one-line errors for empty or garbage files
-        if uv_set:
-            raise NeuralUVError("an OBJ has one set of texture coordinates (vt): --uv-set must be 0")
-        data = read_obj(inp, keep_lines=True)
-        V, F, UV, FUV = data
-        if FUV is None or len(UV) == 0:
-            raise NeuralUVError(f"{inp.name} has no per-corner texture coordinates (vt); use `neuraluv atlas` to make a layout")
-        return V, F, UV, FUV, data
-    try:
-        lay = read_gltf_layout(inp, uv_set)
-    except NeuralUVError:
-        raise
-    except (ValueError, KeyError, IndexError, TypeError, struct.error) as exc:  # malformed JSON structure: one line
-        raise NeuralUVError(f"{inp.name}: could not read texture coordinates ({type(exc).__name__}: {exc})") from None
-    return lay.V, lay.F, lay.UV, lay.FUV, lay
-
-
 def _purpose(args, inp, data):
     """The purpose asked for, or the default for this file, and a one-line reason."""
     from neuraluv.io import layout_materials
@@ -159,10 +135,11 @@ def _purpose(args, inp, data):
 
 
 def cmd_check_uv(args):
+    from neuraluv.io import read_layout
     from neuraluv.repair.diagnose import diagnose_layout
 
     inp, _, _ = check_paths(args.input, input_exts=(".obj", ".glb", ".gltf"))
-    V, F, UV, FUV, data = _read_layout(inp, args.uv_set)
+    V, F, UV, FUV, data = read_layout(inp, args.uv_set)
     purpose, why = _purpose(args, inp, data)
     d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding, purpose=purpose)
     d.info["purpose_reason"] = why
@@ -182,7 +159,8 @@ def cmd_check_uv(args):
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.io import GltfLayout, atomic_write, patch_obj, read_gltf_layout, write_gltf_uvs, write_json
+    from neuraluv.io import (GltfLayout, atomic_write, patch_obj, read_gltf_layout, read_layout, write_gltf_uvs,
+                             write_json)
     from neuraluv.layout.validate import validate_layout
     from neuraluv.repair.repair import repair_layout
     from neuraluv.solver.device import resolve_device
@@ -193,7 +171,7 @@ def cmd_repair(args):
         raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
     if not args.no_neural:
         resolve_device(args.device)
-    V, F, UV, FUV, data = _read_layout(inp, args.uv_set)
+    V, F, UV, FUV, data = read_layout(inp, args.uv_set)
     purpose, why = _purpose(args, inp, data)
     print(f"purpose: {purpose} ({why})")
     gltf = isinstance(data, GltfLayout)

@@ -1,7 +1,9 @@
 """Reading meshes and writing UV-mapped meshes and reports.
 
 ===========  =====================================================================
-``mesh``     :func:`load_mesh` (trimesh; libigl for ``.mesh``), :func:`check_mesh_arrays`, :func:`layout_materials`
+``mesh``     :func:`load_mesh` (trimesh; libigl for ``.mesh``), :func:`check_mesh_arrays`
+``layout_file`` :func:`read_layout` (a UV layout from an OBJ or glTF, as the CLI reads it),
+             :func:`layout_materials`, :func:`obj_material_maps`
 ``obj``      :func:`read_obj` (strict), :func:`write_obj`, :func:`patch_obj` (only changed lines)
 ``gltf``     :func:`read_gltf_layout` (a UV set of every textured primitive), :func:`write_gltf_uvs` (a GLB
              copy that differs only in that UV set, or in an added one)
@@ -21,7 +23,8 @@ MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
 #: name -> module of this package that defines it (imported on first use: the command line checks paths
 #: against :data:`MESH_EXTENSIONS` without loading numpy).
 _WHERE = {"atomic_write": "files", "jsonable": "files", "write_json": "files", "write_csv": "files",
-          "check_mesh_arrays": "mesh", "load_mesh": "mesh", "layout_materials": "mesh",
+          "check_mesh_arrays": "mesh", "load_mesh": "mesh",
+          "read_layout": "layout_file", "layout_materials": "layout_file", "obj_material_maps": "layout_file",
           "ObjData": "obj", "read_obj": "obj", "write_obj": "obj", "patch_obj": "obj",
           "GltfLayout": "gltf", "read_gltf_layout": "gltf", "write_gltf_uvs": "gltf", "load_gltf": "gltf"}
 

@@ -117,7 +117,7 @@ def _accessor(doc, i, *, raw=False):
         stride = bv.get("byteStride") or dt.itemsize * w
         if n and start + stride * (n - 1) + dt.itemsize * w > len(buf):
             raise NeuralUVError(f"{doc.path.name}: accessor {i} runs past its buffer")
-        out = np.ndarray((n, w), dt, buffer=bytes(buf), offset=start, strides=(stride, dt.itemsize)).copy()
+        out = np.ndarray((n, w), dt, buffer=buf, offset=start, strides=(stride, dt.itemsize)).copy()  # no buffer copy
     if raw or not a.get("normalized", False):
         return out
     return np.maximum(out.astype(float) / np.iinfo(dt).max, -1.0)

@@ -61,7 +61,7 @@ import numpy as np
 
 from neuraluv.layout import PURPOSES
 from neuraluv.layout.overlap import overlap_pairs, points_in_triangles
-from neuraluv.topology import faces_sharing
+from neuraluv.topology import faces_sharing, undirected_edges
 
 __all__ = ["PURPOSES", "STACKED_SHARE", "LayoutIntent", "layout_intent", "default_purpose", "check_purpose"]
 
@@ -123,11 +123,10 @@ def default_purpose(materials=0, textures=0):
 
 @dataclass
 class LayoutIntent:
-    """What :func:`layout_intent` reads off a layout under a purpose (arrays over faces).
+    """What :func:`layout_intent` reads off a layout under the ``texture`` purpose (arrays over faces).
 
     Attributes
     ----------
-    purpose : str
     sheet : (m,) int array, sheet of each face (-1: unusable or without 3D area).
     face_class : (m,) int8 array, 1 positive, -1 reversed, 0 UV-degenerate (0 also for faces that take no part).
     shell : (m,) int array, the shell a face belongs to (a fold or degenerate face: the shell it lies in;
@@ -140,7 +139,6 @@ class LayoutIntent:
     mirrored_shell : (m,) bool array, faces of shells reversed in UV (intentional under ``texture``).
     """
 
-    purpose: str
     sheet: np.ndarray
     face_class: np.ndarray
     shell: np.ndarray
@@ -151,11 +149,6 @@ class LayoutIntent:
     palette: np.ndarray
     mirrored_shell: np.ndarray
     info: dict = field(default_factory=dict)
-
-    @property
-    def problem_faces(self):
-        """(m,) bool: faces whose UVs the purpose calls broken (folds and degenerate faces; not missing/NaN)."""
-        return self.fold | self.degenerate
 
     def shell_faces(self, k):
         """Face indices of shell ``k`` (its folds and degenerate faces included)."""
@@ -184,10 +177,9 @@ def _sheets(facts, cls, part):
     sheet = -np.ones(len(facts.F), np.int64)
     if not len(idx):
         return 0, sheet
-    T = facts.FUV[idx]
-    e = np.sort(np.stack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]], 1), axis=2).reshape(-1, 2)
-    c = np.repeat(cls[idx].astype(np.int64), 3)
-    n, lab = faces_sharing(np.column_stack([e, c]), np.repeat(np.arange(len(idx)), 3), len(idx))
+    _, e = undirected_edges(facts.FUV[idx])
+    c = np.tile(cls[idx].astype(np.int64), 3)
+    n, lab = faces_sharing(np.column_stack([e, c]), np.tile(np.arange(len(idx)), 3), len(idx))
     sheet[idx] = lab
     return n, sheet
 
@@ -208,23 +200,21 @@ def _interior_sheets(facts, sheet, n_sheets):
     return out
 
 
-def layout_intent(facts, purpose="texture", *, stacked_share=STACKED_SHARE):
-    """Shells, folds, degenerate faces, palette collapses and mirrored shells of a layout (see the module docstring).
+def layout_intent(facts, *, stacked_share=STACKED_SHARE):
+    """Shells, folds, degenerate faces, palette collapses and mirrored shells of a layout under the ``texture``
+    purpose (see the module docstring). A bake's rules need no such reading: every face against its island's
+    orientation is broken there (:func:`~neuraluv.layout.validate.validate_facts`).
 
     Parameters
     ----------
     facts : :class:`~neuraluv.layout.facts.LayoutFacts`
-    purpose : {"texture", "bake", "lightmap"}
-        Under ``bake`` / ``lightmap`` the masks are those of a bake's rules: every reversed face of an
-        unmirrored island and every positive face of a mirrored one is a fold, every UV-degenerate face is
-        degenerate, nothing is a palette (mirrored islands are reported by the caller, as before).
     stacked_share : float
         Share of a sheet's UV area that must lie exactly on faces of the other orientation for the sheet to
         be a stacked copy rather than a fold.
 
     Returns
     -------
-    LayoutIntent (cached on ``facts`` per purpose)
+    LayoutIntent (cached on ``facts``)
 
     Examples
     --------
@@ -245,8 +235,7 @@ def layout_intent(facts, purpose="texture", *, stacked_share=STACKED_SHARE):
     >>> int(it.fold.sum()), int(it.mirrored_shell.sum())
     (2, 0)
     """
-    purpose = check_purpose(purpose)
-    key = ("intent", purpose, float(stacked_share))
+    key = ("intent", float(stacked_share))
     if key in facts._cache:
         return facts._cache[key]
     m = len(facts.F)
@@ -257,18 +246,6 @@ def layout_intent(facts, purpose="texture", *, stacked_share=STACKED_SHARE):
     palette = np.zeros(m, bool)
     mirrored_shell = np.zeros(m, bool)
     shell = -np.ones(m, np.int64)
-    if purpose != "texture":
-        # a bake's rules: the island's orientation is the only one allowed, every other face is broken
-        major = np.where(facts.mirrored[np.maximum(facts.label, 0)], -1, 1) if facts.n_islands else np.ones(m, int)
-        fold = part & (cls == -major)
-        degenerate = part & (cls == 0)
-        shell = np.where(part, facts.label, -1)
-        signs = [(-1 if facts.mirrored[i] else 1) for i in range(facts.n_islands)]  # one shell per island
-        mirrored_shell = part & facts.mirrored[np.maximum(facts.label, 0)] & (cls == -1)
-        it = LayoutIntent(purpose, sheet, cls, shell, np.asarray(signs, np.int64),
-                          np.arange(facts.n_islands, dtype=np.int64), fold, degenerate, palette, mirrored_shell)
-        facts._cache[key] = it
-        return it
     idx = np.flatnonzero(part)
     s_lab = sheet[idx]
     s_island = np.zeros(n_sheets, np.int64)
@@ -276,7 +253,7 @@ def layout_intent(facts, purpose="texture", *, stacked_share=STACKED_SHARE):
     s_cls = np.zeros(n_sheets, np.int64)
     s_cls[s_lab] = cls[idx]
     s_area = np.bincount(s_lab, weights=np.abs(np.nan_to_num(facts.signed_uv[idx])), minlength=n_sheets)
-    s_faces = np.bincount(s_lab, minlength=n_sheets)
+    s_faces = np.bincount(s_lab, minlength=n_sheets)  # faces per sheet (a line needs two)
     # a sheet touching a face of the other orientation along a vt edge overlaps it there (two triangles on
     # opposite sides of one edge in 3D lie on the same side of it in UV): a fold, unless it is a stacked copy
     na, nb = _edge_neighbours(facts.FUV, idx, s_lab, cls[idx], n_sheets)
@@ -308,9 +285,7 @@ def layout_intent(facts, purpose="texture", *, stacked_share=STACKED_SHARE):
         by_island.setdefault(int(s_island[k]), []).append(k)
     for i, ks in by_island.items():
         ks = np.asarray(ks)
-        sign_i = -1 if facts.mirrored[i] else 1
-        main_c = ks[s_cls[ks] == sign_i]
-        if not len(main_c):  # no face of the island's orientation: all degenerate
+        if i not in main_of:  # no face of the island's orientation: all degenerate
             role[ks] = 4  # the whole island collapsed: a palette
             continue
         main = main_of[i]
@@ -353,8 +328,8 @@ def layout_intent(facts, purpose="texture", *, stacked_share=STACKED_SHARE):
     palette[idx] = role[s_lab] == 4
     shell_sign = s_cls[shells]
     mirrored_shell[idx] = (role[s_lab] == 1) & (s_cls[s_lab] == -1)
-    it = LayoutIntent(purpose, sheet, cls, shell, shell_sign.astype(np.int64), s_island[shells], fold, degenerate,
-                      palette, mirrored_shell, info={"sheets": int(n_sheets), "sheet_faces": s_faces})
+    it = LayoutIntent(sheet, cls, shell, shell_sign.astype(np.int64), s_island[shells], fold, degenerate,
+                      palette, mirrored_shell, info={"sheets": int(n_sheets)})
     facts._cache[key] = it
     return it
 
@@ -400,8 +375,7 @@ def _stacked_copies(facts, sheets, faces_of, s_island, s_cls, s_area, main_of, h
         other = isl[~facts.degenerate3d[isl] & (facts.det[isl] * s_cls[k] < 0)]
         T = FUV[fk]
         E = np.stack([T[:, [0, 1, 2]], T[:, [1, 2, 0]], T[:, [2, 0, 1]]], 1).reshape(-1, 3)
-        To = FUV[other]
-        Eo = np.sort(np.stack([To[:, [0, 1]], To[:, [1, 2]], To[:, [2, 0]]], 1).reshape(-1, 2), 1)
+        _, Eo = undirected_edges(FUV[other])
         key = np.sort(E[:, :2], 1)
         n = len(UV) + 1
         E = E[np.isin(key[:, 0] * n + key[:, 1], Eo[:, 0] * n + Eo[:, 1])]
@@ -429,12 +403,11 @@ def _edge_neighbours(FUV, idx, lab, cls, n):
     """Pairs of sheets of opposite (non-degenerate) classes that share a ``vt`` edge: ``(a, b)`` int arrays."""
     import scipy.sparse as sp
 
-    T = FUV[idx]
-    e = np.sort(np.stack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]], 1), axis=2).reshape(-1, 2)
+    _, e = undirected_edges(FUV[idx])
     _, inv = np.unique(e, axis=0, return_inverse=True)
     inv = inv.reshape(-1)
-    s = np.repeat(lab, 3)
-    c = np.repeat(cls, 3)
+    s = np.tile(lab, 3)
+    c = np.tile(cls, 3)
     n_e = int(inv.max()) + 1 if len(inv) else 0
     pos = sp.csr_matrix((np.ones(int((c == 1).sum())), (inv[c == 1], s[c == 1])), shape=(n_e, n))
     neg = sp.csr_matrix((np.ones(int((c == -1).sum())), (inv[c == -1], s[c == -1])), shape=(n_e, n))

@@ -137,7 +137,7 @@ def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles
 def _validate_texture(f):
     """The texture purpose's verdict (:func:`~neuraluv.layout.purpose.layout_intent`): every face has finite UVs,
     no fold, no UV-degenerate face inside a shell; mirrored, stacked, tiled and palette shells are allowed."""
-    it = layout_intent(f, "texture")
+    it = layout_intent(f)
     m = len(f.F)
     covered = int((~f.missing).sum())
     non_finite = int(f.non_finite.sum())

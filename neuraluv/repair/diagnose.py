@@ -295,7 +295,7 @@ def _tiles(lo, hi):
 
 def _diagnose_texture(f, V, F, resolution, padding):
     """:func:`diagnose_layout` under the ``texture`` purpose (see :mod:`~neuraluv.layout.purpose`)."""
-    it = layout_intent(f, "texture")
+    it = layout_intent(f)
     UVf, FU = f.UV, f.FUV
     args = (V, F, UVf, FU)
     problems = _lost_faces(f, args)

@@ -32,7 +32,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     is left as it is and reported.
     Returns ``UV, FUV``.
     """
-    it = layout_intent(facts, "texture")
+    it = layout_intent(facts)
     bad = it.fold | it.degenerate
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)

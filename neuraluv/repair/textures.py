@@ -19,45 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-from neuraluv.io import atomic_write
+from neuraluv.io import atomic_write, obj_material_maps
 from neuraluv.repair.rebake import appearance_change, rebake_image
 
-__all__ = ["carry_textures", "obj_texture_maps", "APPEARANCE_LIMIT"]
+__all__ = ["carry_textures", "APPEARANCE_LIMIT"]
 
 #: The appearance change a re-bake is held to: mean colour difference over the whole textured surface, in
 #: 8-bit RGB units (one level of 255 is below what a viewer can see). The figures over the changed faces
 #: alone are reported beside it: a fold's faces shared texels with their neighbours, and after repair
 #: they can only take the texels no unchanged face uses, so they may differ more where the fold was.
 APPEARANCE_LIMIT = 1.0
-
-_MAP_KEYS = (b"map_ka", b"map_kd", b"map_ks", b"map_ke", b"map_ns", b"map_d", b"map_bump", b"bump", b"norm",
-             b"disp", b"decal", b"map_pr", b"map_pm", b"map_ps")
-
-
-def _map_name(rest):
-    """The file name of a map line's remainder (options such as ``-bm 1`` come first)."""
-    rest = rest.strip()
-    return rest.split()[-1] if rest.startswith(b"-") else rest
-
-
-def obj_texture_maps(obj_path, raw_lines):
-    """``[(mtl path, [(line index, key, image name)])]`` for the ``mtllib`` files of an OBJ (those found)."""
-    out = []
-    for line in raw_lines:
-        tok = line.encode("utf-8") if isinstance(line, str) else line
-        parts = tok.split(None, 1)
-        if len(parts) == 2 and parts[0] == b"mtllib":
-            lib = Path(obj_path).parent / parts[1].strip().decode("utf-8", "replace")
-            if not lib.is_file():
-                continue
-            maps = []
-            for k, ml in enumerate(lib.read_bytes().splitlines()):
-                p = ml.split(None, 1)
-                if len(p) == 2 and p[0].lower() in _MAP_KEYS:
-                    maps.append((k, p[0], _map_name(p[1]).decode("utf-8", "replace")))
-            out.append((lib, maps))
-    return out
-
 
 def _load(path):
     from PIL import Image
@@ -111,7 +82,7 @@ def carry_textures(inp, out, data, res, *, uv_set=0):
 
 def _carry_obj(inp, out, data, res):
     report = []
-    libs = obj_texture_maps(inp, data.notes["raw"])
+    libs = obj_material_maps(inp, data.notes["raw"])[1]
     if not any(maps for _, maps in libs):
         return report
     new_lib_names = {}

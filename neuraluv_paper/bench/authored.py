@@ -30,7 +30,7 @@ import numpy as np
 
 from neuraluv import datasets
 from neuraluv.cli import main as cli
-from neuraluv.io import patch_obj, read_gltf_layout, read_obj, write_gltf_uvs
+from neuraluv.io import patch_obj, read_gltf_layout, read_layout, write_gltf_uvs
 from neuraluv.layout.facts import layout_facts
 from neuraluv_paper import damage
 from neuraluv_paper.bench.provenance import BenchOutput, command_line, machine_info, markdown_table, write_csv, write_markdown
@@ -56,14 +56,6 @@ def _cli(argv):
         except SystemExit as exc:
             code = exc.code
     return code, out.getvalue(), err.getvalue(), time.perf_counter() - t0
-
-
-def _layout(path):
-    if path.suffix.lower() == ".obj":
-        data = read_obj(path, keep_lines=True)
-        return (*data, data)
-    lay = read_gltf_layout(path)
-    return lay.V, lay.F, lay.UV, lay.FUV, lay
 
 
 def _damaged(kind, V, F, UV, FUV, seed):
@@ -173,7 +165,7 @@ def bench(*, output="results/authored", seed=0, damaged=True, argv=None, show_pr
             print(_line(row), flush=True)
         if not damaged:
             continue
-        V, F, UV, FUV, data = _layout(work)
+        V, F, UV, FUV, data = read_layout(work)
         for k, case in enumerate(("local fold", "vertex noise", "NaN UVs")):
             try:
                 bad = _damaged(case, V, F, UV, FUV, seed + k)
