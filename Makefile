@@ -17,7 +17,7 @@ export PYVISTA_OFF_SCREEN ?= true
 # OpenBLAS' own threads fight torch's on 2 cores (a 256x256 eigh: 1 s vs 6 ms)
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: install demo test test-fast test-notebooks book book-check data lab blender-env baselines bench-quick reproduce reproduce-quick acceptance atlas-acceptance clean
+.PHONY: gltf-validator install demo test test-fast test-notebooks book book-check data lab blender-env baselines bench-quick reproduce reproduce-quick acceptance atlas-acceptance clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -37,13 +37,21 @@ data: install
 	@if [ -d "$(AUTHORED_MIRROR)" ]; then $(BIN)/python data_scripts/fetch.py --authored --from "$(AUTHORED_MIRROR)" | tail -1; \
 	else echo "no mirror at $(AUTHORED_MIRROR): tests on real authored assets will skip"; fi
 
-test: install data
+test: install data gltf-validator
 	$(BIN)/python -m pytest -q
 	$(MAKE) test-notebooks
 	$(MAKE) book-check
 
 test-fast: install
 	$(BIN)/python -m pytest -q -x -m "not slow" tests neuraluv
+
+# The Khronos glTF validator (npm) for the tests that check every GLB they write; without npm they skip.
+gltf-validator:
+	@if [ -d .cache/node/node_modules/gltf-validator ]; then :; \
+	elif command -v npm >/dev/null 2>&1; then mkdir -p .cache/node && cd .cache/node && \
+	  (npm install --silent --no-audit --no-fund gltf-validator@2.0.0-dev.3.10 >/dev/null 2>&1 \
+	   || echo "npm install gltf-validator failed: the glTF validator checks will skip"); \
+	else echo "no npm: the glTF validator checks will skip"; fi
 
 # Every notebook once (nbval); their outputs go to the book's execution cache
 # (notebooks/conftest.py), so the book build below does not run them again.

@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["RepairReport", "repair_mesh", "normalize_unit_box", "face_areas", "is_triangle_soup", "SOUP_COMPONENTS"]
+__all__ = ["RepairReport", "repair_mesh", "weld_ids", "WELD_TOL", "normalize_unit_box", "face_areas", "is_triangle_soup", "SOUP_COMPONENTS"]
 
 
 def face_areas(V, F):
@@ -36,6 +36,36 @@ def face_areas(V, F):
     return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
 
 
+#: Vertices closer than this times the bounding-box diagonal are one vertex when welding.
+WELD_TOL = 1e-10
+
+
+def weld_ids(V, tol=WELD_TOL):
+    """The welded vertex of each vertex: positions within ``tol`` times the diagonal share one id.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    tol : float
+
+    Returns
+    -------
+    ids : (n,) int array, ids in ``0..k-1``.
+
+    Examples
+    --------
+    >>> weld_ids([[0., 0, 0], [1, 0, 0], [0, 0, 0]]).tolist()
+    [0, 1, 0]
+    """
+    import igl  # lazily: this module (the unit box, face areas) is imported by light ones
+
+    V = np.asarray(V, float)
+    if not len(V):
+        return np.zeros(0, np.int64)
+    diag = float(np.linalg.norm(V.max(0) - V.min(0))) or 1.0
+    return np.asarray(igl.remove_duplicate_vertices(V, tol * diag)[2], np.int64).reshape(-1)
+
+
 @dataclass
 class RepairReport:
     """What :func:`repair_mesh` changed (counts)."""
@@ -53,7 +83,7 @@ class RepairReport:
         return any(v for v in asdict(self).values())
 
 
-def repair_mesh(V, F, *, weld=False, weld_tol=1e-10, area_tol=1e-14):
+def repair_mesh(V, F, *, weld=False, weld_tol=WELD_TOL, area_tol=1e-14):
     """Remove degenerate and duplicate faces, optionally weld, drop unreferenced vertices.
 
     Parameters

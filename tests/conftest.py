@@ -1,4 +1,8 @@
+import json
 import os
+import shutil
+import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -81,3 +85,27 @@ def write_layout(path, V, F, UV, FUV):
     lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in V] + [f"vt {u:.17g} {v:.17g}" for u, v in UV]
     lines += [f"f {a + 1}/{ta + 1} {b + 1}/{tb + 1} {c + 1}/{tc + 1}" for (a, b, c), (ta, tb, tc) in zip(F, FUV)]
     path.write_text("\n".join(lines) + "\n")
+
+
+ROOT = Path(__file__).resolve().parents[1]
+GLTF_VALIDATOR = ROOT / ".cache" / "node" / "node_modules" / "gltf-validator"
+
+
+def gltf_validator_missing():
+    """Why the Khronos glTF validator cannot run here, or None."""
+    if shutil.which("node") is None:
+        return "node is not installed: the Khronos glTF validator cannot run"
+    if not GLTF_VALIDATOR.exists():
+        return "the Khronos glTF validator is not installed (make gltf-validator)"
+    return None
+
+
+def gltf_validate(path):
+    """The Khronos glTF validator's summary of ``path`` (``errors``, ``warnings``, ``messages``), or None
+    when it cannot run here (:func:`gltf_validator_missing` says why; a test of its own skips with it)."""
+    if gltf_validator_missing():
+        return None
+    out = subprocess.run(["node", str(ROOT / "data_scripts" / "gltf_validate.js"), str(path)], capture_output=True,
+                         text=True, timeout=120, env={**os.environ, "NODE_PATH": str(GLTF_VALIDATOR.parent)})
+    assert out.returncode == 0, out.stdout + out.stderr
+    return json.loads(out.stdout)

@@ -216,7 +216,7 @@ def test_patch_obj_keeps_every_other_line(tmp_path):
     FUV2 = FUV.copy()
     FUV2[2] = [4, 5, 6]
     info = patch_obj(src, tmp_path / "new.obj", UV2, FUV2, data=data)
-    assert info == {"vt_lines_changed": 1, "vt_lines_added": 3, "f_lines_changed": 1}
+    assert info == {"vt_lines_changed": 1, "vt_lines_added": 3, "f_lines_changed": 1, "polygons_split": 0}
     out = (tmp_path / "new.obj").read_bytes().decode()
     for keep in ("# header\r\n", "mtllib x.mtl\r\n", "vn 0 0 1\r\n", "g quad\r\n", "usemtl m\r\n",
                  "f 1/1/1 2/2/1 3/3/1 4/4/1 # a quad\r\n"):

@@ -46,6 +46,8 @@ class AtlasResult:
         (:data:`~neuraluv.atlas.routing.ROUTES`).
     validation : dict from :func:`~neuraluv.layout.validate_facts` (in memory).
     info : dict, input counts, repair, packing, timings.
+    source : (n,) int array, the input vertex of each vertex of ``V``
+        (:func:`~neuraluv.atlas.prepare.input_layout` carries the layout back to the input's faces).
     """
 
     V: np.ndarray
@@ -57,6 +59,7 @@ class AtlasResult:
     face_route: np.ndarray
     validation: dict
     info: dict
+    source: np.ndarray = None
 
     @property
     def valid(self):
@@ -263,7 +266,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         "time": time.perf_counter() - t0, "device": str(resolve_device(device)), "seed": seed,
     }
     return AtlasResult(V=Vin[vmap], F=Fr, UV=UV, FUV=FUV, charts=charts, face_chart=face_chart,
-                       face_route=face_route, validation=validation, info=info)
+                       face_route=face_route, validation=validation, info=info, source=vmap)
 
 
 def _copied_charts(charts, copies, m):

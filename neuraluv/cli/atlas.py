@@ -76,7 +76,8 @@ def cmd_atlas(args):
     if args.resolution < 16 or args.padding < 0 or 2 * args.padding >= args.resolution / 2:
         raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
     resolve_device(args.device)
-    res, rep = atlas_file(args.input, out, report=args.report, renders=args.renders, preset=args.preset,
+    res, rep = atlas_file(args.input, out, report=args.report, renders=args.renders, replace_uvs=args.replace_uvs,
+                          rebake=not args.no_rebake, preset=args.preset,
                           resolution=args.resolution, padding=args.padding, packer=args.packer, seed=args.seed,
                           device=args.device, **_overrides(args), texel_density=args.texel_density,
                           orient=args.orient, merge=not args.no_merge, stack=args.stack,
@@ -104,6 +105,10 @@ def cmd_atlas(args):
           + f"; {res.info['time']:.1f}s"
           + (f"; input repaired: {', '.join(fixed)}" if fixed else ""))
     _print_fallbacks(t, args)
+    _print_carried(rep)
+    _print_textures(rep["textures"])
+    for note in rep["notes"]:
+        print(f"  note: {note}")
     if not rep["ok"]:
         print("neuraluv: atlas failed validation after reading it back (see the report)", file=sys.stderr)
         return EXIT_INVALID
@@ -121,6 +126,42 @@ def _print_fallbacks(totals, args):
         print(f"  the --time-budget ({args.time_budget:g} s) ran out before every chart was solved (a busy "
               f"machine, or a large mesh): those charts have a valid but more distorted map; a larger "
               f"--time-budget (0: none) solves them all")
+
+
+def _print_carried(rep):
+    """Faces in and out, and where the atlas's written UV set went."""
+    fc, w = rep["faces"], rep["written"]
+    extra = [f"{fc['twin_faces']:,} duplicate / double-sided faces given their twin's UVs" if fc["twin_faces"] else "",
+             f"{fc['collapsed_faces']:,} faces the mesh repair removed (no area, repeated corners, slivers) "
+             "mapped to a point" if fc["collapsed_faces"] else ""]
+    print(f"  faces: {fc['in']:,} in, {fc['out']:,} out" + "".join(f"; {e}" for e in extra if e))
+    if "texcoord" in w:
+        sets = sorted(set(w["texcoord"]))
+        print(f"  {'replaced' if w['mode'] == 'replace' else 'added'} UV set "
+              + ", ".join(f"TEXCOORD_{k}" for k in sets)
+              + ("" if w["mode"] == "replace" else " (the atlas; the file's other UV sets untouched, --replace-uvs "
+                 "to write it into TEXCOORD_0)")
+              + "; every other part of the scene kept"
+              + (f"; {w['primitives_split']} primitive(s) had vertices split along the atlas's seams (attributes "
+                 "copied)" if w["primitives_split"] else ""))
+    elif "f_lines_changed" in w:
+        print(f"  OBJ: every line kept but {w['vt_lines_changed']:,} vt lines changed, {w['vt_lines_added']:,} added, "
+              f"{w['f_lines_changed']:,} f lines given new vt indices"
+              + (f"; {w['polygons_split']:,} polygons written as their triangles (the atlas's seams cross them)"
+                 if w.get("polygons_split") else ""))
+
+
+def _print_textures(textures):
+    """One line per re-baked (or skipped) image, with the measured colour change."""
+    for t in textures:
+        if "skipped" in t:
+            print(f"  texture {t['image']}: not re-baked, {t['skipped']}")
+        else:
+            a, c = t["appearance"]["surface"], t["appearance"]["changed_faces"]
+            print(f"  re-baked {t['image']} -> {Path(t['written']).name}: colour change over the surface mean "
+                  f"{a['mean']:.3f}, p99 {a['p99']:.2f}; over the changed faces mean {c['mean']:.2f}, p99 "
+                  f"{c['p99']:.1f} (8-bit RGB distance, {a['samples']:,} samples each)"
+                  + ("" if t["ok"] else " — above the 1-level mean we hold a re-bake to: inspect it"))
 
 
 def _purpose(args, inp, data):
@@ -159,7 +200,7 @@ def cmd_check_uv(args):
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.io import (GltfLayout, atomic_write, patch_obj, read_gltf_layout, read_layout, write_gltf_uvs,
+    from neuraluv.io import (GltfLayout, patch_obj, read_gltf_layout, read_layout, staged_outputs, write_gltf_uvs,
                              write_json)
     from neuraluv.layout.validate import validate_layout
     from neuraluv.repair.repair import repair_layout
@@ -186,73 +227,65 @@ def cmd_repair(args):
                         resolution=args.resolution, padding=args.padding, time_budget=args.time_budget or None,
                         neural=not args.no_neural, purpose=purpose, repack=add,
                         **_overrides(args))
-    read_set = args.uv_set
-    if data is not None and not gltf and out.suffix.lower() == ".obj":
-        written = patch_obj(inp, out, res.UV, res.FUV, data=data)  # every other line of the input kept byte for byte
-    elif patchable and (add or not res.unchanged):
-        try:  # every byte but the UV set kept: nodes, transforms, normals, materials, other UV sets
-            written = write_gltf_uvs(data, res.UV, res.FUV, out, mode="add" if add else "replace")
-        except NeuralUVError as exc:
-            raise NeuralUVError(f"{inp.name}: {exc}") from None
-        sets = sorted(set(written["texcoord"]))
-        read_set = sets[0]
-        if len(sets) > 1:
-            print(f"  note: the primitives got different UV sets ({', '.join(f'TEXCOORD_{k}' for k in sets)}); "
-                  f"the read-back checks TEXCOORD_{read_set}")
-    elif res.unchanged and out.suffix.lower() == inp.suffix.lower():
-        with atomic_write(out, "wb") as fh:  # nothing changed: the input's bytes, not a re-export
-            fh.write(inp.read_bytes())
-        written = {"format": out.suffix.lower(), "copied": True}
-    else:
-        write_atlas(out, res.V, res.F, res.UV, res.FUV)
-        written = {"format": out.suffix.lower()}
-    textures = []
-    kept_asset = patchable or (data is not None and not gltf and out.suffix.lower() == ".obj")
-    if purpose == "texture" and not res.unchanged and not args.no_rebake and not add and kept_asset:
-        from neuraluv.repair.textures import carry_textures
-
-        textures = carry_textures(inp, out, data, res, uv_set=args.uv_set)
-    # the verdict is taken on the written file, by the same purpose's rules as the check
-    try:
-        if gltf and out.suffix.lower() == ".glb":
-            lay2 = read_gltf_layout(out, read_set)
-            V2, F2, UV2, FUV2 = lay2.V, lay2.F, lay2.UV, lay2.FUV
+    # the output, its re-baked textures, the report and the figure are written as one: all or none
+    with staged_outputs() as stage:
+        tmp = stage(out)
+        read_set = args.uv_set
+        if data is not None and not gltf and out.suffix.lower() == ".obj":
+            written = patch_obj(inp, tmp, res.UV, res.FUV, data=data)  # every other line of the input kept byte for byte
+        elif patchable and (add or not res.unchanged):
+            try:  # every byte but the UV set kept: nodes, transforms, normals, materials, other UV sets
+                written = write_gltf_uvs(data, res.UV, res.FUV, tmp, mode="add" if add else "replace")
+            except NeuralUVError as exc:
+                raise NeuralUVError(f"{inp.name}: {exc}") from None
+            sets = sorted(set(written["texcoord"]))
+            read_set = sets[0]
+            if len(sets) > 1:
+                print(f"  note: the primitives got different UV sets ({', '.join(f'TEXCOORD_{k}' for k in sets)}); "
+                      f"the read-back checks TEXCOORD_{read_set}")
+        elif res.unchanged and out.suffix.lower() == inp.suffix.lower():
+            tmp.write_bytes(inp.read_bytes())  # nothing changed: the input's bytes, not a re-export
+            written = {"format": out.suffix.lower(), "copied": True}
         else:
-            V2, F2, UV2, FUV2 = read_atlas(out)
-    except NeuralUVError as exc:  # a written file our own reader refuses must not be left behind as a result
-        out.unlink(missing_ok=True)
-        raise NeuralUVError(f"the repaired file could not be read back ({exc}); nothing written") from None
-    back = validate_layout(V2, F2, UV2, FUV2, check_padding=add, padding=args.padding, resolution=args.resolution,
-                           purpose=purpose)
-    rep = res.report()
-    rep["purpose"] = {"purpose": purpose, "reason": why}
-    rep["written"] = written
-    rep["textures"] = textures
-    rep["readback"] = back
-    if args.report:
-        write_json(args.report, rep)
-    if args.figure:
-        import matplotlib
+            write_atlas(tmp, res.V, res.F, res.UV, res.FUV)
+            written = {"format": out.suffix.lower()}
+        textures = []
+        kept_asset = patchable or (data is not None and not gltf and out.suffix.lower() == ".obj")
+        if purpose == "texture" and not res.unchanged and not args.no_rebake and not add and kept_asset:
+            from neuraluv.repair.textures import carry_textures
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+            textures = carry_textures(inp, tmp, data, res, uv_set=args.uv_set)
+            textures = [{**t, "written": str(out.parent / Path(t["written"]).name)} if "written" in t else t
+                        for t in textures]
+        # the verdict is taken on the written file, by the same purpose's rules as the check
+        try:
+            if gltf and out.suffix.lower() == ".glb":
+                lay2 = read_gltf_layout(tmp, read_set)
+                V2, F2, UV2, FUV2 = lay2.V, lay2.F, lay2.UV, lay2.FUV
+            else:
+                V2, F2, UV2, FUV2 = read_atlas(tmp)
+        except NeuralUVError as exc:  # a written file our own reader refuses must not be left behind as a result
+            raise NeuralUVError(f"the repaired file could not be read back ({exc}); nothing written") from None
+        back = validate_layout(V2, F2, UV2, FUV2, check_padding=add, padding=args.padding, resolution=args.resolution,
+                               purpose=purpose)
+        rep = res.report()
+        rep["purpose"] = {"purpose": purpose, "reason": why}
+        rep["written"] = written
+        rep["textures"] = textures
+        rep["readback"] = back
+        if args.report:
+            write_json(stage(args.report), rep)
+        if args.figure:
+            import matplotlib
 
-        from neuraluv.io import atomic_write
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
 
-        fig = res.figure(title=inp.name)
-        with atomic_write(args.figure, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=110)
-        plt.close(fig)
+            fig = res.figure(title=inp.name)
+            fig.savefig(stage(args.figure), format="png", dpi=110)
+            plt.close(fig)
     print(f"wrote {out}: {res.summary()}")
-    for t in textures:
-        if "skipped" in t:
-            print(f"  texture {t['image']}: not re-baked, {t['skipped']}")
-        else:
-            a, c = t["appearance"]["surface"], t["appearance"]["changed_faces"]
-            print(f"  re-baked {t['image']} -> {t['written']}: colour change over the surface mean {a['mean']:.3f}, "
-                  f"p99 {a['p99']:.2f}; over the changed faces mean {c['mean']:.2f}, p99 {c['p99']:.1f} "
-                  f"(8-bit RGB distance, {a['samples']:,} samples each)"
-                  + ("" if t["ok"] else " — above the 1-level mean we hold a re-bake to: inspect it"))
+    _print_textures(textures)
     if gltf and isinstance(written, dict) and "texcoord" in written:
         print(f"  {'added' if add else 'replaced'} UV set TEXCOORD_{read_set}"
               + (f"; TEXCOORD_{args.uv_set} untouched" if add else "")
@@ -323,12 +356,20 @@ def register(sub):
                                    "charts, solve each with the neural solver (or a marked fallback), pack, write, "
                                    "read back and validate (0 flips, 0 overlaps, padding).", epilog=EPILOG)
     a.add_argument("input", help="mesh file")
-    a.add_argument("-o", "--output", required=True, help="output .obj (per-corner vt) or .glb (TEXCOORD_0)")
+    a.add_argument("-o", "--output", required=True,
+                   help="output .obj (per-corner vt) or .glb; an OBJ written from an OBJ, or a GLB from a GLB, keeps "
+                        "everything of the input but the new UVs")
     a.add_argument("--report", help="JSON report")
     a.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     a.add_argument("--padding", type=nonneg_float, default=4.0, help="gap between islands in texels (default 4)")
     _packing_options(a)
     a.add_argument("--renders", help="folder for checkerboard and route-coloured PNGs")
+    a.add_argument("--replace-uvs", action="store_true",
+                   help="glTF: write the atlas into TEXCOORD_0 (textures re-baked) instead of adding it as a UV set of "
+                        "its own (TEXCOORD_k, the first free k), which leaves the file's textures as they are")
+    a.add_argument("--no-rebake", action="store_true",
+                   help="do not re-bake the textures that read UVs the atlas replaced (an OBJ with vt, or "
+                        "--replace-uvs)")
     time_budget_option(a, 600)
     a.add_argument("--min-height", type=nonneg_float, default=1e-6, help="faces thinner than this fraction of the diagonal are removed as slivers (default 1e-6)")
     _atlas_options(a)

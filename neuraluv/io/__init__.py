@@ -7,7 +7,7 @@
 ``obj``      :func:`read_obj` (strict), :func:`write_obj`, :func:`patch_obj` (only changed lines)
 ``gltf``     :func:`read_gltf_layout` (a UV set of every textured primitive), :func:`write_gltf_uvs` (a GLB
              copy that differs only in that UV set, or in an added one)
-``files``    :func:`atomic_write`, :func:`jsonable`, :func:`write_json`, :func:`write_csv`
+``files``    :func:`atomic_write`, :func:`staged_outputs` (several outputs as one), :func:`jsonable`, :func:`write_json`, :func:`write_csv`
 ===========  =====================================================================
 
 Every writer is atomic: a file is first written next to its destination and then
@@ -22,7 +22,7 @@ MESH_EXTENSIONS = (".obj", ".off", ".ply", ".stl", ".glb", ".gltf", ".mesh")
 
 #: name -> module of this package that defines it (imported on first use: the command line checks paths
 #: against :data:`MESH_EXTENSIONS` without loading numpy).
-_WHERE = {"atomic_write": "files", "jsonable": "files", "write_json": "files", "write_csv": "files",
+_WHERE = {"atomic_write": "files", "staged_outputs": "files", "jsonable": "files", "write_json": "files", "write_csv": "files",
           "check_mesh_arrays": "mesh", "load_mesh": "mesh",
           "read_layout": "layout_file", "layout_materials": "layout_file", "obj_material_maps": "layout_file",
           "ObjData": "obj", "read_obj": "obj", "write_obj": "obj", "patch_obj": "obj",

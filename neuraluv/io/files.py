@@ -10,13 +10,14 @@ import glob
 import json
 import math
 import os
+import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write", "jsonable", "write_json", "write_csv"]
+__all__ = ["atomic_write", "staged_outputs", "jsonable", "write_json", "write_csv"]
 
 
 def _pid_alive(pid):
@@ -74,6 +75,85 @@ def atomic_write(path, mode="w"):
         except FileNotFoundError:
             pass
         raise
+
+
+_STAGE = ".neuraluv-stage-"
+
+
+def _remove_stale_stages(folder):
+    """Delete the staging folders a killed run left in ``folder`` (their process is gone)."""
+    for d in Path(folder).glob(_STAGE + "*"):
+        pid = d.name[len(_STAGE):].split(".", 1)[0]
+        if d.is_dir() and pid.isdigit() and not _pid_alive(int(pid)):
+            shutil.rmtree(d, ignore_errors=True)
+
+
+@contextmanager
+def staged_outputs():
+    """Write several output files as one: all of them replace their destinations, or none does.
+
+    The block gets ``stage(path)``, the path to write ``path``'s new content to: a file in a private
+    folder beside ``path`` (``.neuraluv-stage-PID.XXXX``). Anything else written into that folder (a
+    re-baked texture beside an OBJ) is an output too. When the block succeeds every staged file is moved
+    onto its destination, the old files kept aside until all moves succeeded (and put back if one
+    fails); when it fails, nothing is moved. Staging folders left by a killed run are removed later.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> with staged_outputs() as stage:
+    ...     for name in ("a.obj", "a.json"):
+    ...         _ = open(stage(os.path.join(d, name)), "w").write(name)
+    >>> sorted(os.listdir(d))
+    ['a.json', 'a.obj']
+    >>> try:
+    ...     with staged_outputs() as stage:
+    ...         _ = open(stage(os.path.join(d, "a.obj")), "w").write("new")
+    ...         raise OSError("disk full")
+    ... except OSError:
+    ...     pass
+    >>> open(os.path.join(d, "a.obj")).read(), sorted(os.listdir(d))
+    ('a.obj', ['a.json', 'a.obj'])
+    """
+    folders = {}
+
+    def stage(path):
+        path = Path(path)
+        parent = path.parent.resolve()
+        if parent not in folders:
+            parent.mkdir(parents=True, exist_ok=True)
+            _remove_stale_stages(parent)
+            folders[parent] = Path(tempfile.mkdtemp(dir=parent, prefix=f"{_STAGE}{os.getpid()}."))
+        return folders[parent] / path.name
+
+    try:
+        yield stage
+        moved, kept = [], []
+        try:
+            for parent, d in folders.items():
+                for f in sorted(d.iterdir()):
+                    if f.name.endswith(".neuraluv-old") or not f.is_file():
+                        continue
+                    dst = parent / f.name
+                    if dst.exists():
+                        old = d / (f.name + ".neuraluv-old")
+                        os.replace(dst, old)
+                        kept.append((old, dst))
+                    os.replace(f, dst)
+                    moved.append(dst)
+        except BaseException:
+            for dst in moved:
+                try:
+                    dst.unlink()
+                except OSError:
+                    pass
+            for old, dst in kept:
+                os.replace(old, dst)
+            raise
+    finally:
+        for d in folders.values():
+            shutil.rmtree(d, ignore_errors=True)
 
 
 def jsonable(obj):

@@ -182,7 +182,7 @@ class GltfLayout:
     blocks : list of dict, one per primitive read: ``mesh``, ``primitive``, ``uv_accessor``, ``rows`` (first row,
         count), ``faces`` (first face, count), ``mode``, ``indices`` (the primitive's triangle rows, local).
     skipped : list of str, primitives left out and why.
-    texcoord : int, the UV set read.
+    texcoord : int, the UV set read (a dict per primitive, or None for geometry only: see :func:`read_gltf_layout`).
     materials, textures : int, counts in the file.
     """
 
@@ -192,7 +192,7 @@ class GltfLayout:
     FUV: np.ndarray
     blocks: list
     skipped: list
-    texcoord: int
+    texcoord: object
     doc: object = field(repr=False, default=None)
     materials: int = 0
     textures: int = 0
@@ -204,7 +204,9 @@ def read_gltf_layout(path, texcoord=0):
     Parameters
     ----------
     path : str or Path
-    texcoord : int
+    texcoord : int, dict or None
+        The UV set: one index for every primitive, a dict ``{(mesh, primitive): index}`` (primitives not in
+        it are left out), or None for every triangle primitive's geometry with zero UVs (a mesh to unwrap).
 
     Returns
     -------
@@ -220,25 +222,29 @@ def read_gltf_layout(path, texcoord=0):
     Vs, Fs, Us, blocks, skipped = [], [], [], [], []
     rows = faces = 0
     done = {}
-    name = f"TEXCOORD_{int(texcoord)}"
     for mi, mesh in enumerate(doc.json.get("meshes", [])):
         for pi, prim in enumerate(mesh.get("primitives", [])):
             mode = prim.get("mode", 4)
             attrs = prim.get("attributes", {})
             where = f"mesh {mi} ({mesh.get('name', '')!s}) primitive {pi}"
+            k = texcoord.get((mi, pi)) if isinstance(texcoord, dict) else texcoord
+            name = None if texcoord is None else f"TEXCOORD_{k}"
             if mode not in (4, 5, 6):
                 skipped.append(f"{where}: points or lines (mode {mode}), no faces")
                 continue
-            if name not in attrs or "POSITION" not in attrs:
-                skipped.append(f"{where}: no {name} (not textured by this UV set)")
+            if isinstance(texcoord, dict) and k is None:
+                skipped.append(f"{where}: not asked for")
                 continue
-            key = (attrs["POSITION"], attrs[name], prim.get("indices"), mode)
+            if (name is not None and name not in attrs) or "POSITION" not in attrs:
+                skipped.append(f"{where}: no {name or 'POSITION'}" + (" (not textured by this UV set)" if name else ""))
+                continue
+            key = (attrs["POSITION"], attrs.get(name), prim.get("indices"), mode)
             if key in done:  # the same data under another primitive: read once
                 skipped.append(f"{where}: the same data as {done[key]}")
                 continue
             done[key] = where
             P = _accessor(doc, attrs["POSITION"]).astype(float)
-            T = _accessor(doc, attrs[name]).astype(float)
+            T = _accessor(doc, attrs[name]).astype(float) if name else np.zeros((len(P), 2))
             if len(T) != len(P):
                 raise NeuralUVError(f"{Path(path).name}: {where}: {name} has {len(T)} entries, POSITION {len(P)}")
             idx = _accessor(doc, prim["indices"]).reshape(-1) if "indices" in prim else np.arange(len(P))
@@ -249,12 +255,14 @@ def read_gltf_layout(path, texcoord=0):
             Vs.append(P @ M[:3, :3].T + M[:3, 3])
             Us.append(np.c_[T[:, 0], 1.0 - T[:, 1]])
             Fs.append(tri + rows)
-            blocks.append({"mesh": mi, "primitive": pi, "uv_accessor": attrs[name], "rows": (rows, len(P)),
+            blocks.append({"mesh": mi, "primitive": pi, "uv_accessor": attrs.get(name), "rows": (rows, len(P)),
                            "faces": (faces, len(tri)), "mode": mode, "indices": tri})
             rows += len(P)
             faces += len(tri)
     if not blocks:
-        raise NeuralUVError(f"{Path(path).name} has no triangle primitive with {name}"
+        what = "TEXCOORD_%d" % texcoord if isinstance(texcoord, int) else "the asked-for UV sets" \
+            if texcoord is not None else "positions"
+        raise NeuralUVError(f"{Path(path).name} has no triangle primitive with {what}"
                             + (f" ({skipped[0]})" if skipped else ""))
     F = np.vstack(Fs).astype(np.int64)
     V = np.vstack(Vs)
@@ -263,7 +271,8 @@ def read_gltf_layout(path, texcoord=0):
         raise NeuralUVError(f"{Path(path).name} has {int(bad.sum())} vertices with NaN or infinite coordinates "
                             "(after the node transforms); fix or remove them")
     return GltfLayout(V=V, F=F, UV=np.vstack(Us), FUV=F.copy(), blocks=blocks, skipped=skipped,
-                      texcoord=int(texcoord), doc=doc, materials=len(doc.json.get("materials", [])),
+                      texcoord=texcoord if texcoord is None or isinstance(texcoord, dict) else int(texcoord),
+                      doc=doc, materials=len(doc.json.get("materials", [])),
                       textures=len(doc.json.get("textures", [])))
 
 
@@ -335,6 +344,8 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
     """
     import copy
 
+    if mode == "replace" and not isinstance(layout.texcoord, int):
+        raise NeuralUVError("replacing a UV set needs a layout read with one set index (add a set instead)")
     doc = layout.doc
     doc = _Doc(doc.path, copy.deepcopy(doc.json), [bytearray(b) for b in doc.buffers], doc.glb,
                doc.json_chunk)
@@ -379,6 +390,9 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
                     buf = doc.buffers[bv["buffer"]]
                     for v, val in zip(np.flatnonzero(changed), new):
                         buf[start + stride * v:start + stride * v + 8] = val.tobytes()
+                    if "min" in acc or "max" in acc:  # declared bounds must stay true (the validator checks them)
+                        vals = _accessor(doc, acc_i)
+                        acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
                 else:  # a normalized integer (or odd) accessor: a float one in its place
                     prim["attributes"][f"TEXCOORD_{layout.texcoord}"] = _new_accessor(doc, _float_uv(UV[vrow]))
                 info["texcoord"].append(layout.texcoord)

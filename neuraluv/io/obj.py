@@ -250,7 +250,8 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     Returns
     -------
     dict
-        ``vt_lines_changed``, ``vt_lines_added``, ``f_lines_changed``.
+        ``vt_lines_changed``, ``vt_lines_added``, ``f_lines_changed``, ``polygons_split`` (polygons written
+        as their triangles: the new layout cuts them).
 
     Notes
     -----
@@ -268,7 +269,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
     >>> V, F, UV, FUV = read_obj(a)
     >>> UV2 = UV.copy(); UV2[1] = [0.6, 0.1]
     >>> patch_obj(a, b, UV2, FUV)
-    {'vt_lines_changed': 1, 'vt_lines_added': 0, 'f_lines_changed': 0}
+    {'vt_lines_changed': 1, 'vt_lines_added': 0, 'f_lines_changed': 0, 'polygons_split': 0}
     >>> open(b).read().splitlines()[4:9]
     ['vt 0.1 0.1', 'vt 0.6 0.1', 'vt 0.1 0.5', 'usemtl m', 'f 1/1 2/2 3/3']
     """
@@ -320,6 +321,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
             toks = text(L).split("#", 1)[0].split()[1:]
             if any(len(t.split("/")) > 1 and t.split("/")[1].startswith("-") for t in toks):
                 lines_to_rewrite.add(int(L))
+    split = 0  # polygons whose corners the new layout gives different rows: written as triangles
     order = np.argsort(notes["face_line"], kind="stable")
     fl_sorted = notes["face_line"][order]
     for L in sorted(lines_to_rewrite):
@@ -352,6 +354,7 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
         if consistent and None not in vt:
             new_line[L] = "f " + " ".join(corner_token(tok, r) for tok, r in zip(toks, vt)) + tail + end
         else:
+            split += 1
             new_line[L] = "".join("f " + " ".join(corner_token(toks[c], int(FUV[t, j])) for j, c in
                                                   enumerate((0, k + 1, k + 2))) + end for k, t in enumerate(tri))
     for L in [L for L in new_line if L in joined]:  # a rewritten continued line replaces all its lines
@@ -369,4 +372,5 @@ def patch_obj(src, dst, UV, FUV, *, data=None):
                 fh.write(b"\n")
             fh.write("".join(extra).encode("utf-8"))
     f_changed = sum(1 for L in lines_to_rewrite if L in new_line)
-    return {"vt_lines_changed": int((~same).sum()), "vt_lines_added": int(added), "f_lines_changed": int(f_changed)}
+    return {"vt_lines_changed": int((~same).sum()), "vt_lines_added": int(added), "f_lines_changed": int(f_changed),
+            "polygons_split": int(split)}

@@ -59,6 +59,7 @@ def render_surface(V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FU
     """
     import pyvista as pv
 
+    _quiet_vtk()
     pv.OFF_SCREEN = True
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
     _add_surface(pl, V, F, scalars=scalars, cmap=cmap, clim=clim, uv=uv, FUV=FUV, texture=texture,
@@ -67,6 +68,16 @@ def render_surface(V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FU
     img = pl.screenshot(return_img=True)
     pl.close()
     return np.asarray(img)
+
+
+def _quiet_vtk():
+    """VTK's log to stderr at errors only: without a display it warns "bad X server connection" on every
+    off-screen window although the render works (it falls back to an off-screen context)."""
+    try:
+        from vtkmodules.vtkCommonCore import vtkLogger
+    except ImportError:  # an older VTK without the logger: nothing to quiet
+        return
+    vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
 
 
 def _add_surface(pl, V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FUV=None, texture=None,
