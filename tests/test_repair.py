@@ -1,4 +1,6 @@
 """UV repair with minimal change: diagnosis, local untangling, island moves, new charts, the OBJ patch, the CLI."""
+import json
+
 import numpy as np
 
 from neuraluv import datasets
@@ -273,3 +275,34 @@ def test_the_time_budget_bounds_moving_islands_one_by_one():
     assert "time budget" in res.summary()
     slow = repair_layout(V, F, UV, F, "test", device="cpu")
     assert slow.after.ok and not slow.repacked  # without a budget: moved one by one (padding kept only by movers)
+
+
+def test_an_overlap_below_the_texel_tolerance_is_noted_and_left_alone(tmp_path, capsys):
+    """Issue 31: minimal means minimal. Two islands touching by a sliver no texture shows (well below half a
+    texel at 1024²): check notes it, repair leaves the file byte-identical, the read-back agrees; with
+    --min-defect 0 the same sliver is a problem that repair fixes."""
+    from conftest import two_islands, write_layout
+    from neuraluv.cli import main
+    from neuraluv.layout.facts import layout_facts
+
+    V, F, UV, FUV, a, b = two_islands()
+    rows_b = np.unique(FUV[b])
+    gap = UV[rows_b, 0].min() - UV[np.unique(FUV[a]), 0].max()
+    UV[rows_b, 0] -= gap + 2e-5  # the right island pushed 2e-5 into the left one
+    area = layout_facts(V, F, UV, FUV).overlaps()[2].sum()
+    assert 0 < area * 1024 ** 2 < 0.5
+    src = tmp_path / "sliver.obj"
+    write_layout(src, V, F, UV, FUV)
+    assert main(["check", "--uv", str(src), "--purpose", "bake", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["ok"] and [w["kind"] for w in d["warnings"]].count("subtexel_overlap") == 1
+    assert main(["repair", str(src), "-o", str(tmp_path / "same.obj"), "--purpose", "bake", "--device", "cpu"]) == 0
+    assert (tmp_path / "same.obj").read_bytes() == src.read_bytes()
+    capsys.readouterr()
+    assert main(["check", "--uv", str(src), "--purpose", "bake", "--min-defect", "0", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert [p["kind"] for p in d["problems"]] == ["island_overlap"]
+    assert main(["repair", str(src), "-o", str(tmp_path / "moved.obj"), "--purpose", "bake", "--min-defect", "0",
+                 "--device", "cpu", "--report", str(tmp_path / "r.json")]) == 0
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["readback"]["valid"] and r["readback"]["overlapping_pairs"] == 0

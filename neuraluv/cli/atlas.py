@@ -16,7 +16,7 @@ from neuraluv.cli.options import (EPILOG, EXIT_INVALID, EXIT_OK, add_solver_opti
                                   positive_int, time_budget_option)
 from neuraluv.cli.paths import check_paths
 from neuraluv.errors import NeuralUVError, require
-from neuraluv.layout import PURPOSES
+from neuraluv.layout import DEFECT_TEXELS, PURPOSES
 from neuraluv.layout.pack import ORDER_MAX_ISLANDS, PACK_TRIALS, PACKERS
 
 __all__ = ["register"]
@@ -182,7 +182,8 @@ def cmd_check_uv(args):
     inp, _, _ = check_paths(args.input, input_exts=(".obj", ".glb", ".gltf"))
     V, F, UV, FUV, data = read_layout(inp, args.uv_set)
     purpose, why = _purpose(args, inp, data)
-    d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding, purpose=purpose)
+    d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding, purpose=purpose,
+                        min_defect=args.min_defect)
     d.info["purpose_reason"] = why
     left_out = list(getattr(data, "skipped", []))
     d.info["left_out"] = left_out
@@ -225,7 +226,7 @@ def cmd_repair(args):
     add = patchable and purpose != "texture" and not args.replace_uvs  # a lightmap goes to a UV set of its own
     res = repair_layout(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device, threads=args.threads,
                         resolution=args.resolution, padding=args.padding, time_budget=args.time_budget or None,
-                        neural=not args.no_neural, purpose=purpose, repack=add,
+                        neural=not args.no_neural, purpose=purpose, repack=add, min_defect=args.min_defect,
                         **_overrides(args))
     # the output, its re-baked textures, the report and the figure are written as one: all or none
     with staged_outputs() as stage:
@@ -267,7 +268,7 @@ def cmd_repair(args):
         except NeuralUVError as exc:  # a written file our own reader refuses must not be left behind as a result
             raise NeuralUVError(f"the repaired file could not be read back ({exc}); nothing written") from None
         back = validate_layout(V2, F2, UV2, FUV2, check_padding=add, padding=args.padding, resolution=args.resolution,
-                               purpose=purpose)
+                               purpose=purpose, min_defect=args.min_defect)
         rep = res.report()
         rep["purpose"] = {"purpose": purpose, "reason": why}
         rep["written"] = written
@@ -326,6 +327,13 @@ def _atlas_options(p):
     add_solver_options(p)
 
 
+def _defect_option(p, prefix):
+    p.add_argument("--min-defect", type=nonneg_float, default=DEFECT_TEXELS, metavar="TEXELS",
+                   help=prefix + "overlaps (of an island with itself, or of two islands) smaller than this many texels "
+                   f"of area at --resolution cannot show in the texture: noted and left alone (default {DEFECT_TEXELS:g}; "
+                   "0: every overlap is a problem)")
+
+
 def _purpose_option(p, prefix):
     p.add_argument("--purpose", default="auto", choices=["auto", *PURPOSES],
                    help=prefix + "what the layout is for: texture (an artist's layout: mirrored, stacked, tiled, UDIM "
@@ -346,6 +354,7 @@ def register(sub):
                    help="diagnose the file's UV layout instead (OBJ with vt, or GLB): flips, mirrored islands, "
                         "overlaps, missing/NaN UVs, bounds, texel density, padding; and what `repair` would do")
     _purpose_option(c, "with --uv: ")
+    _defect_option(c, "with --uv under --purpose bake/lightmap: ")
     c.add_argument("--uv-set", type=int, default=0, metavar="N", help="with --uv: the glTF UV set TEXCOORD_N to read (default 0)")
     c.add_argument("--resolution", type=positive_int, default=1024, help="with --uv: texture resolution (default 1024)")
     c.add_argument("--padding", type=nonneg_float, default=2.0, help="with --uv: required gap in texels (default 2)")
@@ -389,6 +398,7 @@ def register(sub):
     r.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     r.add_argument("--padding", type=nonneg_float, default=2.0, help="gap kept around moved and new islands, in texels (default 2)")
     _purpose_option(r, "")
+    _defect_option(r, "under --purpose bake/lightmap: ")
     r.add_argument("--no-rebake", action="store_true",
                    help="do not re-bake the textures whose UVs changed (by default each image is redrawn for the new "
                         "layout, written beside / into the output, and the colour change is measured)")

@@ -36,11 +36,16 @@ PURPOSES = {
     "lightmap": "as bake (a lightmap is baked)",
 }
 
+#: ``check --uv`` and ``repair``'s default tolerance, in texels (of area) at ``--resolution``: an island's
+#: overlap with itself or with another island smaller than this in all cannot show in the texture; it is
+#: noted and left alone (the library's default is 0: exact).
+DEFECT_TEXELS = 0.5
+
 #: name -> module of this package that defines it (imported on first use, so that ``neuraluv.layout.pack``'s
 #: settings stay cheap to import, e.g. for the command line's help).
 _WHERE = {
     "LayoutFacts": "facts", "layout_facts": "facts", "uv_islands": "facts", "face_clusters": "facts",
-    "texel_density": "facts", "island_densities": "facts", "face_texel_density": "facts", "density_spread": "facts",
+    "texel_density": "facts", "defect_area": "facts", "island_densities": "facts", "face_texel_density": "facts", "density_spread": "facts",
     "find_overlaps": "overlap", "overlap_pairs": "overlap", "self_overlap": "overlap", "triangles_union": "overlap",
     "boundary_is_simple": "overlap", "validate_layout": "validate", "validate_facts": "validate",
     "rigid_fit": "rigid", "quarter_turn": "rigid", "rotate_to_min_box": "rigid", "upright": "rigid",
@@ -48,7 +53,7 @@ _WHERE = {
     "layout_intent": "purpose", "LayoutIntent": "purpose", "default_purpose": "purpose", "check_purpose": "purpose",
 }
 
-__all__ = sorted(["PURPOSES", *_WHERE])
+__all__ = sorted(["PURPOSES", "DEFECT_TEXELS", *_WHERE])
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())

@@ -29,7 +29,7 @@ from neuraluv.topology import faces_sharing
 
 __all__ = ["LayoutFacts", "layout_facts", "uv_islands", "face_clusters", "texel_density", "island_densities",
            "face_texel_density",
-           "density_spread", "DEGENERATE_3D_AREA"]
+           "density_spread", "DEGENERATE_3D_AREA", "defect_area"]
 
 #: Faces of the unit-box mesh with less 3D area than this have no distortion (their UVs are left alone).
 DEGENERATE_3D_AREA = 1e-14
@@ -185,6 +185,9 @@ class LayoutFacts:
     density : (n_islands,) float array, :func:`texel_density` of each island (in ``Vn`` units).
     mirrored : (n_islands,) bool array.
     degenerate3d : (m,) bool array, faces with no 3D area (:data:`DEGENERATE_3D_AREA`).
+    min_overlap : float, UV area: an island's overlap with itself, or a pair of islands' overlap, smaller
+        than this in all is below what a texture shows and is left out of :meth:`overlaps` (counted in
+        :meth:`ignored_overlaps`). 0 (the default): every overlap counts.
     """
 
     Vn: np.ndarray
@@ -201,6 +204,7 @@ class LayoutFacts:
     density: np.ndarray
     mirrored: np.ndarray
     degenerate3d: np.ndarray
+    min_overlap: float = 0.0
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -238,13 +242,33 @@ class LayoutFacts:
         return np.unique(self.FUV[self.island_faces(i)])
 
     def overlaps(self):
-        """Overlapping pairs of oriented faces (:func:`~neuraluv.layout.overlap.find_overlaps`), computed once."""
+        """Overlapping pairs of oriented faces (:func:`~neuraluv.layout.overlap.find_overlaps`), computed once;
+        without the overlaps below :attr:`min_overlap` (per island, or per pair of islands, in all)."""
         if "overlaps" not in self._cache:
-            self._cache["overlaps"] = find_overlaps(self)
+            ii, jj, area = find_overlaps(self)
+            keep = np.ones(len(ii), bool)
+            ignored = []
+            if self.min_overlap > 0 and len(ii):
+                li, lj = self.label[ii], self.label[jj]
+                key = np.minimum(li, lj) * (self.n_islands + 1) + np.maximum(li, lj)
+                groups, inv = np.unique(key, return_inverse=True)
+                total = np.bincount(inv.reshape(-1), weights=area, minlength=len(groups))
+                small = total < self.min_overlap
+                keep = ~small[inv.reshape(-1)]
+                ignored = [{"islands": sorted({int(g // (self.n_islands + 1)), int(g % (self.n_islands + 1))}),
+                            "area": float(t)} for g, t in zip(groups[small], total[small])]
+            self._cache["overlaps"] = (ii[keep], jj[keep], area[keep])
+            self._cache["ignored"] = ignored
         return self._cache["overlaps"]
 
+    def ignored_overlaps(self):
+        """The overlaps :meth:`overlaps` leaves out (below :attr:`min_overlap`): ``islands`` (one: with itself)
+        and ``area`` (UV) of each."""
+        self.overlaps()
+        return self._cache["ignored"]
 
-def layout_facts(V, F, UV, FUV=None, *, normalized=False):
+
+def layout_facts(V, F, UV, FUV=None, *, normalized=False, min_overlap=0.0):
     """Read a layout once: usable faces, islands, det J, orientation, texel densities.
 
     Parameters
@@ -256,6 +280,9 @@ def layout_facts(V, F, UV, FUV=None, *, normalized=False):
         ``vt`` index of every corner (default ``F``); -1 (or out of range) where a face has none.
     normalized : bool
         ``V`` is already normalised to the unit box (it is used as it is).
+    min_overlap : float
+        UV area below which an overlap is left out (:attr:`LayoutFacts.min_overlap`; :func:`defect_area`
+        turns texels at a resolution into it).
 
     Returns
     -------
@@ -297,7 +324,20 @@ def layout_facts(V, F, UV, FUV=None, *, normalized=False):
     lab_u = label[usable]
     density, mirrored = _density(signed[usable], a3[usable], lab_u, n, count=~deg3[usable])
     return LayoutFacts(Vn=Vn, F=F, UV=UV, FUV=FUV, missing=missing, non_finite=non_finite, label=label, n_islands=int(n),
-                       det=det, signed_uv=signed, area3d=a3, density=density, mirrored=mirrored, degenerate3d=deg3)
+                       det=det, signed_uv=signed, area3d=a3, density=density, mirrored=mirrored, degenerate3d=deg3,
+                       min_overlap=float(min_overlap))
+
+
+def defect_area(texels, resolution):
+    """The UV area of ``texels`` texels (of area) in a ``resolution``² texture: the size under which a defect
+    cannot show in a texture of that resolution.
+
+    Examples
+    --------
+    >>> defect_area(0.5, 1024) * 1024 ** 2
+    0.5
+    """
+    return float(texels) / float(resolution) ** 2 if texels and resolution else 0.0
 
 
 def face_texel_density(V, F, UV, FUV=None):

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from neuraluv.layout.facts import density_spread, layout_facts
+from neuraluv.layout.facts import defect_area, density_spread, layout_facts
 from neuraluv.layout.overlap import gaps, triangles_union
 from neuraluv.layout.purpose import check_purpose, layout_intent
 
@@ -43,6 +43,10 @@ def validate_layout(V, F, UV, FUV=None, **kw):
         ``folded_faces``, ``degenerate_faces``, ``shells``, ``mirrored_shell_faces``,
         ``palette_faces``, ``covered_faces``, ``non_finite_faces``, ``min_det`` (oriented like
         each face's shell) and ``valid``.
+    min_defect : float
+        Texels (of area) at ``resolution``: an island's overlap with itself, or two islands' overlap,
+        smaller than this in all is not counted (``overlaps_below_tolerance`` lists them); 0 (default): exact.
+        (:func:`validate_facts` takes the tolerance the facts were read with.)
     stacked : bool
         Islands stacked on purpose (``build_atlas(stack=True)``): two islands covering
         exactly the same region (symmetric difference below 1e-9 of their area) are
@@ -74,7 +78,8 @@ def validate_layout(V, F, UV, FUV=None, **kw):
     >>> r["flips"], r["overlapping_pairs"], r["valid"]
     (0, 1, False)
     """
-    return validate_facts(layout_facts(V, F, UV, FUV), **kw)
+    tol = defect_area(kw.pop("min_defect", 0.0), kw.get("resolution"))
+    return validate_facts(layout_facts(V, F, UV, FUV, min_overlap=tol), **kw)
 
 
 def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles=False, stacked=False,
@@ -130,7 +135,7 @@ def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles
         "padding_violations": pad_viol, "padding_texels": padding, "resolution": resolution,
         "min_gap_texels": gap_tex, "uv_in_unit_square": in_box, "valid": bool(valid),
         "density_spread": density_spread(f.density), "stacked_islands": len({j for _, j in on_top}),
-        "purpose": "bake",
+        "overlaps_below_tolerance": f.ignored_overlaps(), "purpose": "bake",
     }
 
 

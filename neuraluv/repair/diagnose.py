@@ -17,7 +17,7 @@ import numpy as np
 
 from neuraluv import __version__
 from neuraluv.io import jsonable
-from neuraluv.layout.facts import face_clusters, layout_facts
+from neuraluv.layout.facts import defect_area, face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import check_purpose, layout_intent
 from neuraluv.layout.validate import validate_facts
@@ -144,7 +144,7 @@ def _problem(kind, message, action, faces, V, F, UV, FUV, **extra):
             "where": _where(V, F, UV, FUV, faces), "action": action}
 
 
-def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=None, purpose="bake"):
+def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=None, purpose="bake", min_defect=0.0):
     """Every problem of a supplied UV layout, where it is, and what repair will do.
 
     Parameters
@@ -159,7 +159,10 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
     padding : float
         Required gap between islands, in texels (a warning when violated).
     facts : :class:`~neuraluv.layout.facts.LayoutFacts`, optional
-        Already computed (of the same layout).
+        Already computed (of the same layout; its ``min_overlap`` is the tolerance then).
+    min_defect : float
+        Texels (of area) at ``resolution``: an island's overlap with itself, or two islands' overlap, smaller
+        than this in all cannot show in the texture and is a warning (left alone), not a problem; 0: exact.
     purpose : {"bake", "lightmap", "texture"}
         What the layout is for (:mod:`~neuraluv.layout.purpose`): ``bake`` / ``lightmap`` judge by
         a bake's rules (unique, unmirrored, in ``[0,1]²``); ``texture`` reports mirrored, stacked,
@@ -186,7 +189,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
     purpose = check_purpose(purpose)
     F = np.asarray(F, np.int64)
     FUV = F if FUV is None else np.asarray(FUV, np.int64)
-    f = facts if facts is not None else layout_facts(V, F, UV, FUV)
+    f = facts if facts is not None else layout_facts(V, F, UV, FUV, min_overlap=defect_area(min_defect, resolution))
     V = np.asarray(V, float)
     UVf = f.UV
     FU = f.FUV
@@ -261,6 +264,14 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         warnings.append({"kind": "padding", "message": f"{val['padding_violations']} island pairs closer than "
                          f"{padding:g} texels at {resolution} px (closest {val['min_gap_texels']})",
                          "action": "left as is for islands repair does not move; moved and new islands keep the padding"})
+    for ov in f.ignored_overlaps():
+        texels = ov["area"] * float(resolution) ** 2
+        what = (f"island {ov['islands'][0]} overlaps itself" if len(ov["islands"]) == 1 else
+                f"islands {ov['islands'][0]} and {ov['islands'][1]} overlap")
+        warnings.append({"kind": "subtexel_overlap", "message": f"{what} by {texels:.2g} texels at {resolution} px "
+                         f"(UV area {ov['area']:.2g}), below the {f.min_overlap * float(resolution) ** 2:g}-texel "
+                         "tolerance", "action": "left as is: no texture at this resolution shows it", "overlap_islands": ov["islands"],
+                         "area": ov["area"]})
     if f.degenerate3d.any():
         warnings.append({"kind": "zero_area_faces", "message": f"{int(f.degenerate3d.sum()):,} faces have no 3D area "
                          "(distortion is undefined there)", "action": "their UVs are left as they are"})
@@ -376,6 +387,14 @@ def _diagnose_texture(f, V, F, resolution, padding):
                                  + (f"; {many} repeat across tiles" if many else ""),
                                  "kept (a repeating sampler or UDIM tiles read them)", faces, *args,
                                  islands=sorted(tiles_of)))
+    for ov in f.ignored_overlaps():
+        texels = ov["area"] * float(resolution) ** 2
+        what = (f"island {ov['islands'][0]} overlaps itself" if len(ov["islands"]) == 1 else
+                f"islands {ov['islands'][0]} and {ov['islands'][1]} overlap")
+        warnings.append({"kind": "subtexel_overlap", "message": f"{what} by {texels:.2g} texels at {resolution} px "
+                         f"(UV area {ov['area']:.2g}), below the {f.min_overlap * float(resolution) ** 2:g}-texel "
+                         "tolerance", "action": "left as is: no texture at this resolution shows it", "overlap_islands": ov["islands"],
+                         "area": ov["area"]})
     if f.degenerate3d.any():
         warnings.append({"kind": "zero_area_faces", "message": f"{int(f.degenerate3d.sum()):,} faces have no 3D area "
                          "(distortion is undefined there)", "action": "their UVs are left as they are"})

@@ -36,7 +36,7 @@ from neuraluv.atlas.candidates import chart_candidates
 from neuraluv.atlas.routing import fallback_islands, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
-from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, layout_facts
+from neuraluv.layout.facts import DEGENERATE_3D_AREA, defect_area, face_clusters, layout_facts
 from neuraluv.layout.purpose import check_purpose
 from neuraluv.meshfix import face_areas
 from neuraluv.plot import plot_repair
@@ -140,7 +140,8 @@ class RepairResult:
 
 
 def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", threads=None, resolution=1024,
-                  padding=2.0, time_budget=None, neural=True, purpose="bake", repack=False, **overrides):
+                  padding=2.0, time_budget=None, neural=True, purpose="bake", repack=False, min_defect=0.0,
+                  **overrides):
     """Repair a supplied UV layout, changing only what is broken.
 
     Parameters
@@ -158,6 +159,9 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         torch CPU threads for the neural steps.
     resolution, padding : int, float
         Moved and new islands keep ``padding`` texels from every other island at ``resolution``.
+    min_defect : float
+        Texels (of area) at ``resolution``: overlaps smaller than this (an island with itself, or a pair of
+        islands, in all) are noted and left alone (:func:`~neuraluv.repair.diagnose.diagnose_layout`); 0: exact.
     time_budget : float, optional
         Seconds after which running neural solves stop with their best valid map.
     neural : bool
@@ -207,7 +211,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     purpose = check_purpose(purpose)
     if repack and purpose == "texture":
         raise NeuralUVError("repack=True builds a layout of its own: use it with purpose 'bake' or 'lightmap'")
-    facts = layout_facts(V, F, UV, FUV)
+    facts = layout_facts(V, F, UV, FUV, min_overlap=defect_area(min_defect, resolution))
     before = diagnose_layout(V, F, UV, FUV, resolution=resolution, padding=padding, facts=facts, purpose=purpose)
     p_in = len(UV)
     if before.ok and not (repack and any(w["kind"] == "padding" for w in before.warnings)):
@@ -240,7 +244,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                                                 deadline=deadline)
     # 5. overlaps between islands, out of the square, new islands: move the fewest (or pack them all afresh)
     if repack:
-        f5 = layout_facts(Vn, F, UVw, FUVw, normalized=True)
+        f5 = layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap)
         UVw, FUVw = repack_all(Vn, F, UVw, FUVw, f5, padding, resolution, tight=True)
         placements, repacked = {}, True
         for j in range(f5.n_islands):
@@ -255,7 +259,8 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         if i >= 0:
             actions[i].append(pl)
     after = diagnose_layout(V, F, UVw, FUVw, resolution=resolution, padding=padding,
-                            facts=layout_facts(Vn, F, UVw, FUVw, normalized=True), purpose=purpose)
+                            facts=layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap),
+                            purpose=purpose)
     changed_rows = np.ones(len(UVw), bool)
     changed_rows[:p_in] = ~_same_bits(UVw[:p_in], UV)
     changed_faces = (FUVw != FUV).any(1) | changed_rows[FUVw].any(1)

@@ -34,7 +34,7 @@ def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=Fa
     ``Vn`` is the unit-box mesh. Returns ``UV, FUV, placements {input island (or -1 - k for new ones): action},
     repacked``.
     """
-    f = layout_facts(Vn, F, UV, FUV, normalized=True)
+    f = layout_facts(Vn, F, UV, FUV, normalized=True, min_overlap=facts0.min_overlap)
     # map current islands to input islands (-1: new)
     origin = -np.ones(f.n_islands, np.int64)
     for j in range(f.n_islands):
