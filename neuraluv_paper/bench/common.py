@@ -14,7 +14,7 @@ from neuraluv.relax import slim_relax
 __all__ = ["METHODS", "LABELS", "RECUT", "DEFAULT_MESHES", "QUICK_MESHES", "QUICK_SIZES", "QUICK_METHODS", "MESH_LABELS",
            "load_meshes", "neural_options", "result_row", "iteration_override", "peak_rss_mb", "slim_reference"]
 
-#: Table 2's methods, in the paper's order (OptCuts last: it recuts), then the external tools the
+#: Table 1's (tab:compact_prelim) methods, in the paper's order (OptCuts last: it recuts), then the external tools the
 #: paper names beside them: the BFF v1.6 binary next to our BFF, and Blender's unwrappers (optional
 #: binaries / ``bpy``: rows read ``unavailable`` without them, and ``--resume`` recomputes such rows).
 METHODS = ["lscm", "arap", "slim-1k", "bff", "bff-cli", "neural", "optcuts",
@@ -32,7 +32,7 @@ QUICK_MESHES = ["glove", "components"]
 #: Smaller procedural sizes for quick runs.
 QUICK_SIZES = {"glove": {"res": 2}, "components": {"n_rings": 4}, "cap": {"n_rings": 5}, "saddle": {"n_rings": 5},
                "bumpy": {"n_rings": 5}, "disk": {"n_rings": 5}}
-#: Table 2's methods under ``quick``: SLIM-20 stands in for SLIM-1k.
+#: Table 1's (tab:compact_prelim) methods under ``quick``: SLIM-20 stands in for SLIM-1k.
 QUICK_METHODS = ["lscm", "arap", "slim-20", "bff", "neural", "optcuts"]
 MESH_LABELS = {"hand": "Hand", "bob": "Bob", "camel": "Camel"}
 
