@@ -12,8 +12,9 @@ label by, in order:
 1. a label written right after it (``Table 1 (tab:compact_prelim)``; several for a
    plural mention: ``Tables 1–2 (tab:compact_prelim, tab:slim_failure_modes)``);
 2. the nearest keyword on the same line (:data:`TABLE_KEYS`, :data:`FIGURE_KEYS`, matched at the start of
-   a word; a results file name is its table's label, e.g. ``compact_prelim.md``); a plural mention must
-   also name only numbers that some keyword on the line points at;
+   a word; a results file name is its table's label, e.g. ``compact_prelim.md``); a keyword of a group
+   ("Amara", "NTK") settles only a plural mention ("Tables 7–9"), which must also name only numbers that
+   some keyword on the line points at;
 3. a plural mention of every table (``Tables 1–9``) needs nothing.
 
 A mention that resolves to nothing fails too ("say which table"), so a changed
@@ -160,6 +161,9 @@ def check_line(line, numbers):
             problems.append((m.group(0), "cannot tell which one this is: write its label after it, e.g. "
                                          "'Table 1 (tab:compact_prelim)'"))
             continue
+        if len(nums) == 1 and len(found) > 1:
+            problems.append((m.group(0), f"its keyword points at several ({', '.join(found)}): write its label after it"))
+            continue
         want = {numbers[lab] for lab in found}
         near = {numbers[lab] for lab in _keyword_labels(line, m.start(), m.end(), TABLE_KEYS if kind == "tab"
                                                         else FIGURE_KEYS, every=True)}
@@ -193,6 +197,7 @@ def test_the_checker_catches_a_wrong_number():
     assert check_line("the NTK alignment table (Table 5)", n)
     assert check_line("Figs. 6–7 (NTK trajectory)", n) and check_line("+ Figs. 6–7 | the NTK runner", n)
     assert check_line("as in Table 3", n)  # which one?
+    assert check_line("the Amara routing split (Table 7)", n)  # which of the three Amara tables?
 
 
 @needs_paper

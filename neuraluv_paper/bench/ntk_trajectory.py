@@ -1,4 +1,4 @@
-"""``neuraluv bench ntk --trajectory``: the NTK–LBO alignment followed over a solve (the paper's Figure 8).
+"""``neuraluv bench ntk --trajectory``: the NTK–LBO alignment followed over a solve (the paper's Fig. 8, fig:ntk_trajectory).
 
 For each of ``n_charts`` xatlas charts the probe records S(16) along the
 optimisation of the recipe (Tutte residual) and of a random absolute start, and
