@@ -150,7 +150,7 @@ def test_compact_greys_flipped_distortion_and_prints_paper_values(tmp_path, monk
 
     def fake_load(names, quick=False):  # the curled glove makes ARAP fold; call it "camel"
         V, F = datasets.glove(res=2, curl=2.5, finger_length=7)
-        return [("camel", V, F)], []
+        return [("camel", V, F)]
 
     monkeypatch.setattr(bench_compact, "load_meshes", fake_load)
     res = bench_compact.bench(["camel"], ["lscm", "arap"], output=tmp_path, figures=False, show_progress=False)

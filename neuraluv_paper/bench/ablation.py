@@ -107,7 +107,7 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
         overrides = {"iterations": 40, "retries": 0, **overrides}
     seeds = [int(x) for x in (seeds if seeds else [seed])]
     base = neural_options(preset, quick, seeds[0], device, **overrides)
-    loaded, missing = load_meshes(names, quick)
+    loaded = load_meshes(names, quick)
     out, machine, log = start_run(output, resume=resume, device=device)
 
     jobs = [(v, n, V, F, sd) for sd in seeds for v in variants for n, V, F in loaded]
@@ -160,8 +160,6 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     notes = [GREY_NOTE, PAPER_NOTE,
              "“Returned as fallback”: charts where every neural attempt ended invalid, so the solver returned its "
              "marked Tutte fallback instead (never a silently flipped map)."]
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     ran = sorted(n for n, _, _ in loaded)
     if ran != sorted(DEFAULT_MESHES):
         notes.append("The paper's numbers in brackets average " + ", ".join(MESH_LABELS[n] for n in DEFAULT_MESHES)

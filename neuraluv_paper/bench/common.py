@@ -7,7 +7,6 @@ import time
 import numpy as np
 
 from neuraluv import datasets
-from neuraluv.errors import NeuralUVError
 from neuraluv.metrics import distortion_metrics
 from neuraluv.relax import slim_relax
 
@@ -38,12 +37,16 @@ MESH_LABELS = {"hand": "Hand", "bob": "Bob", "camel": "Camel"}
 
 
 def load_meshes(names, quick=False):
-    """Load meshes by name; returns ``(loaded, missing)``.
+    """Load meshes by name: a list of ``(name, V, F)``, one per name.
 
-    ``loaded`` is a list of ``(name, V, F)``; ``missing`` a list of
-    ``(name, reason)`` for meshes that are not cached (never raises for that).
-    Under ``quick``, procedural meshes are built at the small
-    :data:`QUICK_SIZES`.
+    Under ``quick``, procedural meshes are built at the small :data:`QUICK_SIZES`.
+    A real mesh that is not cached is an error, never a row left out: a table
+    with fewer meshes than asked for would read as a result.
+
+    Raises
+    ------
+    neuraluv.datasets.DataMissing
+        One line naming every missing mesh, the folder searched and ``make data``.
     """
     loaded, missing = [], []
     for n in names:
@@ -52,11 +55,14 @@ def load_meshes(names, quick=False):
                 V, F = datasets.procedural(n, **QUICK_SIZES[n])
             else:
                 V, F = datasets.load(n)
-        except NeuralUVError as exc:
-            missing.append((n, str(exc)))
+        except datasets.DataMissing:
+            missing.append(n)
             continue
         loaded.append((n, np.asarray(V, float), np.asarray(F, np.int64)))
-    return loaded, missing
+    if missing:
+        raise datasets.DataMissing(f"the real mesh(es) {', '.join(missing)} not in {datasets.data_dir()}: "
+                                   f"{datasets.FETCH_HINT}")
+    return loaded
 
 
 def neural_options(preset, quick, seed=0, device="auto", **overrides):

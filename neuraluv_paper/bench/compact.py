@@ -88,7 +88,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (QUICK_METHODS if quick else METHODS))
     nkw = neural_options(preset, quick, seed, device, **overrides)
-    loaded, missing = load_meshes(names, quick)
+    loaded = load_meshes(names, quick)
     out, machine, log = start_run(output, resume=resume, device=device)
 
     jobs = []
@@ -139,8 +139,6 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
                       f"{r['status']} — {r['reason']}" for r in rows if r["status"] not in ("ok", "neural") and r["reason"]})
     if reasons:
         notes.append("Status details:\n\n" + "\n".join(f"- {s}" for s in reasons))
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log ({out / 'rows.jsonl'}).")
     fm = findings_markdown(findings)

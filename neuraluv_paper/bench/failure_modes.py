@@ -82,7 +82,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (PAPER_METHODS if quick else METHODS)) + (["neural"] if neural else [])
     nkw = neural_options(preset, quick, seed, device, **overrides)
-    loaded, missing = load_meshes(names, quick)
+    loaded = load_meshes(names, quick)
     out, machine, log = start_run(output, resume=resume, device=device)
 
     rows, topo = [], {}
@@ -129,8 +129,6 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
                       for r in rows if r["status"] not in ("ok", "neural") and r.get("reason")})
     if reasons:
         notes.append("Status details:\n\n" + "\n".join(f"- {s}" for s in reasons))
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
     files = [write_csv(out / "slim_failure_modes.csv", csv_rows)]

@@ -153,7 +153,7 @@ def _assets(n, meshes, quick):
         V, F, info = generated_asset(i, res=16 if quick else None)
         out.append((info["name"], V, F))
     if meshes:
-        loaded, _ = load_meshes(list(meshes), quick)
+        loaded = load_meshes(list(meshes), quick)
         out += loaded
     return out
 

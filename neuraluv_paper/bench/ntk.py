@@ -222,8 +222,10 @@ def run(args):
     for name in _charts(args):
         try:
             charts[name] = datasets.load_charts(name, largest=True)[0]
-        except Exception as exc:  # missing data is a user error, not a crash
-            raise NeuralUVError(f"cannot load chart {name!r}: {exc} (set NEURALUV_DATA / run `neuraluv data`)") from exc
+        except datasets.DataMissing as exc:  # missing data is a user error, not a crash
+            raise datasets.DataMissing(f"cannot load chart {name!r}: {exc}") from None
+        except Exception as exc:
+            raise NeuralUVError(f"cannot load chart {name!r}: {exc}") from exc
 
     if getattr(args, "probe_timing", False):
         return _probe_timing(charts, get_config(preset), args, device)

@@ -103,9 +103,8 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
     nkw.pop("iterations", None)
     out, machine, log = start_run(output, resume=resume, device=device)
     groups = []
-    missing = []
     if "compact" in sets:
-        loaded, missing = load_meshes(list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES)), quick)
+        loaded = load_meshes(list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES)), quick)
         groups.append(("compact", loaded))
     if "xatlas" in sets and not quick:
         groups.append(("xatlas", _xatlas_set(out / "cache")))
@@ -162,8 +161,6 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
              "disk-like registry charts closest in size (see the set list above); where no native xatlas chart is "
              "within a factor 1.5 of the target, the closest midpoint-subdivided copy of one (named `.../s<level>`: "
              "the same surface and boundary, each triangle split into 4 per level), as in Table 5 (tab:thingi_scale)."]
-    if missing:
-        notes.append("Not run (mesh not cached): " + ", ".join(n for n, _ in missing))
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
     files = [write_csv(out / "runtime_pareto_runs.csv", rows), write_csv(out / "runtime_pareto.csv", summary),
