@@ -11,7 +11,9 @@ STAMP   := $(VENV)/.installed
 MIRROR  ?= ../shared/data/meshes
 AUTHORED_MIRROR ?= ../shared/data/authored
 LAB_ARGS ?=
-export NEURALUV_DATA ?= $(CURDIR)/.cache/neuraluv-data
+# Real meshes: `make data` fills neuraluv.datasets.data_dir(), which in a checkout is .cache/neuraluv-data
+# (the library's own default there, so Jupyter and pytest started without make find them too);
+# a NEURALUV_DATA in the environment overrides both.
 export MPLBACKEND ?= Agg
 export PYVISTA_OFF_SCREEN ?= true
 # OpenBLAS' own threads fight torch's on 2 cores (a 256x256 eigh: 1 s vs 6 ms)
@@ -30,7 +32,7 @@ install: $(STAMP)
 demo: install
 	$(BIN)/neuraluv demo -o demo_out
 
-# Import the real meshes from a local mirror when there is one (sha256-checked).
+# Import the real meshes from a local mirror when there is one (sha256-checked) into data_dir().
 data: install
 	@if [ -d "$(MIRROR)" ]; then $(BIN)/python data_scripts/fetch.py --from "$(MIRROR)"; \
 	else echo "no mirror at $(MIRROR): tests that need real meshes will skip"; fi

@@ -13,7 +13,7 @@
    valid chart must stay bit-identical.
 3. Bad inputs (empty, garbage, NaN, points, degenerate, non-manifold, huge
    coordinates) must give a one-line error (exit 2) or a valid atlas.
-Prints one table per group and the totals (Table 8/9 quantities).
+Prints one table per group and the totals (the quantities of Tables 7 and 9, tab:amara_coverage_validity and tab:amara_large_sweep).
 """
 from __future__ import annotations
 

@@ -6,8 +6,9 @@
     python data_scripts/fetch.py --from ../shared/data/meshes   # offline import, sha256-checked
     python data_scripts/fetch.py --authored --from ../shared/data/authored   # the authored UV layouts
 
-The cache is ``$NEURALUV_DATA`` (default: the user cache folder). Nothing is
-written into the repository. The compact charts (camel, hand, bob) are derived
+The cache is ``neuraluv.datasets.data_dir()``: ``$NEURALUV_DATA``, else this checkout's ``.cache/neuraluv-data``
+(the folder ``make data`` fills and the library reads by default), else the user cache. Nothing tracked by git is
+written. The compact charts (camel, hand, bob) are derived
 from the fetched files at load time (``neuraluv.datasets.load``), exactly as
 the data's SOURCES.md describes.
 """

@@ -4,7 +4,7 @@
 For Camel, Hand and Bob (every component) this runs, in one process:
 the ``paper`` preset, the ``fast`` preset, and libigl SLIM with 1,000
 iterations from the same Tutte start, and prints one table with E_SD, flips,
-min det J and wall time, next to the paper's Table 2 values.
+min det J and wall time, next to the paper's Table 1 (tab:compact_prelim) values.
 
     NEURALUV_DATA=... python data_scripts/solver_acceptance.py [--meshes camel hand bob] [--skip-paper]
 
@@ -58,7 +58,7 @@ def main(argv=None):
                            time=r.time, iterations=its, status=r.status)
                 rows.append(row)
                 print(f"{label:10s} {method:8s} {m['esd']:9.4f} {m['flips']:6d} {m['min_det']:9.3g} {r.time:8.1f} {its:6d} {r.status:8s}", flush=True)
-    print("\n# summary (E_SD area-weighted over a mesh's charts; paper = Table 2 'Ours')")
+    print("\n# summary (E_SD area-weighted over a mesh's charts; paper = Table 1 (tab:compact_prelim) 'Ours')")
     for name in a.meshes:
         for method in (["paper"] if not a.skip_paper else []) + ["fast", "slim-1k"]:
             rs = [r for r in rows if r["chart"].startswith(name) and r["method"] == method]

@@ -3,8 +3,10 @@
 Every notebook in ``notebooks/`` runs in about a minute on a 2-core CPU by
 default: the real compact charts (Camel, Hand, Bob; :func:`load_chart`) wherever
 the lesson is a real failure, the real ``"fast"`` preset or short budgets, fixed
-seeds; procedural charts only where a construction is the point, or as stand-ins
-when the real meshes are not cached. Setting the environment variable
+seeds; procedural charts only where a construction is the point, never as
+stand-ins: a chapter that needs a real mesh which is not cached stops at that
+cell with one line naming ``make data`` (:class:`~neuraluv.datasets.DataMissing`,
+shown without a traceback once :func:`setup` ran). Setting the environment variable
 ``NEURALUV_PAPER_SCALE=1`` before starting Jupyter (or ``make book``) switches
 every notebook to the paper's settings (the ``"paper"`` preset, the compact real
 charts). Notebooks choose between the two with :func:`budget`, and print the
@@ -27,7 +29,7 @@ import numpy as np
 
 from neuraluv import datasets
 
-__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "quiet_environment"]
+__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "quiet_environment", "one_line_errors"]
 
 #: Name of the environment variable that selects paper-scale runs.
 ENV_VAR = "NEURALUV_PAPER_SCALE"
@@ -98,6 +100,7 @@ def setup(seed=0, threads="auto"):
     import torch
 
     quiet_environment()
+    one_line_errors()
     random.seed(seed)
     np.random.seed(seed)
     torch.manual_seed(seed)
@@ -150,12 +153,50 @@ def quiet_environment(environ=None):
     return changed
 
 
+def one_line_errors(shell=None):
+    """Show a :class:`~neuraluv.datasets.DataMissing` in a notebook as its one line, without a traceback.
+
+    The cell still fails, so "Run All" stops there; only the display changes.
+
+    Parameters
+    ----------
+    shell : IPython shell, optional
+        Default: the running one (nothing happens outside IPython).
+
+    Returns
+    -------
+    bool
+        True when the handler was installed.
+
+    Examples
+    --------
+    >>> one_line_errors()  # a doctest is not an IPython kernel
+    False
+    """
+    if shell is None:
+        try:
+            from IPython import get_ipython
+        except ImportError:
+            return False
+        shell = get_ipython()
+    if shell is None:
+        return False
+
+    def _one_line(shell, etype, value, _tb, tb_offset=None):
+        # shown as the cell's error (ename, evalue, a one-line traceback); the kernel still replies "error"
+        shell._showtraceback(etype, value, [f"{etype.__name__}: {value}"])
+
+    shell.set_custom_exc((datasets.DataMissing,), _one_line)
+    return True
+
+
 def load_chart(quick="glove", paper="camel", **quick_kwargs):
     """Load the notebook's chart: ``quick`` by default, ``paper`` at paper scale.
 
-    A real mesh that is not cached falls back to ``quick`` (and a missing real
-    ``quick`` mesh to the procedural glove) with a printed note (fetch it with
-    ``python data_scripts/fetch.py``), so a notebook always runs.
+    A procedural name (:data:`neuraluv.datasets.PROCEDURAL`) is built in code: a
+    chapter that means to use one says so. A real mesh that is not cached is an
+    error, never a silent stand-in: :class:`~neuraluv.datasets.DataMissing`
+    with one line naming ``make data`` and the folder searched.
 
     Parameters
     ----------
@@ -168,9 +209,14 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
     Returns
     -------
     name : str
-        The chart actually loaded.
+        The chart loaded.
     V : (n,3) float array
     F : (m,3) int array
+
+    Raises
+    ------
+    neuraluv.datasets.DataMissing
+        The real mesh is not in :func:`neuraluv.datasets.data_dir`.
 
     Examples
     --------
@@ -178,21 +224,11 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
     >>> name, V.shape, F.shape
     ('disk', (19, 3), (24, 3))
     """
-    def _quick():
-        if quick_kwargs:
-            return datasets.procedural(quick, **quick_kwargs)
-        return datasets.load(quick)
-
-    if paper_scale():
-        try:
-            return (paper, *datasets.load(paper))
-        except datasets.DataMissing as err:
-            if quick == paper:
-                print(f"{err}: using the procedural 'glove' chart instead")
-                return ("glove", *datasets.glove())
-            print(f"{err}: using the {quick!r} chart instead")
+    name = paper if paper_scale() else quick
+    if name in datasets.PROCEDURAL:
+        return (name, *datasets.procedural(name, **(quick_kwargs if name == quick else {})))
     try:
-        return (quick, *_quick())
-    except datasets.DataMissing as err:
-        print(f"{err}: using the procedural 'glove' chart instead")
-        return ("glove", *datasets.glove())
+        return (name, *datasets.load(name))
+    except datasets.DataMissing:
+        raise datasets.DataMissing(f"this chapter needs the real mesh {name!r}, which is not in "
+                                   f"{datasets.data_dir()}: {datasets.FETCH_HINT}, then rerun it") from None

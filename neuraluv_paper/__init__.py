@@ -11,7 +11,7 @@ and a runner that misses one says so in one line.
                  paper's values, findings written as data (``*.findings.json``)
 ``baselines``    the compared methods behind one signature (libigl, our BFF,
                  external binaries: BFF v1.6, OptCuts, Blender, xatlas)
-``ntk``          the NTK–LBO alignment probes (Table 4 of the paper)
+``ntk``          the NTK–LBO alignment probes (Table 4 of the paper, tab:ntk_compact_controls)
 ``damage``       generated damage of UV layouts (``neuraluv bench repair``)
 ``claims``       the claims checklist read from the committed findings
 ===============  ==================================================================

@@ -19,27 +19,27 @@ from dataclasses import dataclass
 from pathlib import Path
 
 __all__ = ["PAPER_TABLES", "CHAPTER_CLAIMS", "Claim", "results_dir", "report_files", "findings", "checklist",
-           "claims_page", "reference", "results_index"]
+           "claims_page", "reference", "results_index", "heading"]
 
 #: The paper's tables in the LaTeX source's order (so ``number`` is the paper's
 #: Table N), with where this package's evidence lives: ``results`` is the
 #: committed report (``None``: nothing committed) and ``runner`` the
-#: ``neuraluv bench`` command that writes it (``None``: no runner). The report
-#: file names keep the project's older numbering (``table2_compact.md`` is the
-#: paper's Table 1).
+#: ``neuraluv bench`` command that writes it (``None``: no runner). A report's
+#: file name is its table's LaTeX label (``compact_prelim.md`` is
+#: ``tab:compact_prelim``, the paper's Table 1) and its heading says both.
 PAPER_TABLES = (
     dict(number=1, label="tab:compact_prelim", title="compact pre-cut charts",
-         results="compact/table2_compact.md", runner="compact"),
+         results="compact/compact_prelim.md", runner="compact"),
     dict(number=2, label="tab:slim_failure_modes", title="compact baseline failure modes",
-         results="failure-modes/table3_failure_modes.md", runner="failure-modes"),
+         results="failure-modes/slim_failure_modes.md", runner="failure-modes"),
     dict(number=3, label="tab:ablation_prelim", title="compact ablations",
-         results="ablation/table4_ablation.md", runner="ablation"),
+         results="ablation/ablation_prelim.md", runner="ablation"),
     dict(number=4, label="tab:ntk_compact_controls", title="NTK–LBO subspace alignment",
-         results="ntk/table5.md", runner="ntk"),
+         results="ntk/ntk_compact_controls.md", runner="ntk"),
     dict(number=5, label="tab:thingi_scale", title="Thingi10K / xatlas-cut charts",
-         results="charts/table6_charts.md", runner="charts"),
+         results="charts/thingi_scale.md", runner="charts"),
     dict(number=6, label="tab:runtime_pareto", title="runtime–quality Pareto sweep (CUDA)",
-         results="pareto/table7_pareto.md", runner="pareto"),
+         results="pareto/runtime_pareto.md", runner="pareto"),
     dict(number=7, label="tab:amara_coverage_validity", title="Amara coverage and validity",
          results="generated/amara_coverage_validity.md", runner="generated"),
     dict(number=8, label="tab:amara_blender_methods", title="Blender chart-level baselines on Amara",
@@ -52,37 +52,37 @@ PAPER_TABLES = (
 #: claim as the committed report words it) or the paper's table number for a
 #: table without a committed report. ``"08"`` shows every row.
 CHAPTER_CLAIMS = {
-    "00": [("compact/table2_compact.md", "Camel: SLIM-1k is zero-flip and the better fixed-chart solver"),
-           ("failure-modes/table3_failure_modes.md", "Camel / SLIM-1k")],
-    "00b": [("compact/table2_compact.md", "only ours is foldover-free"),
-            ("compact/table2_compact.md", "Camel: LSCM and ARAP still fold")],
-    "01": [("ablation/table4_ablation.md", "Removing LBO features"),
-           ("ntk/table5.md", "Spectral inputs raise S(16) at init"),
-           ("ntk/table5.md", "Spectral inputs raise S(4) at init")],
-    "02": [("ablation/table4_ablation.md", "Spectral init"),
-           ("ablation/table4_ablation.md", "Random init")],
-    "03": [("compact/table2_compact.md", "only ours is foldover-free"),
-           ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold")],
-    "03b": [("compact/table2_compact.md", "only ours is foldover-free"),
-            ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold"),
-            ("compact/table2_compact.md", "Camel: SLIM-1k is zero-flip and the better fixed-chart solver"),
-            ("ablation/table4_ablation.md", "Spectral init"),
-            ("ablation/table4_ablation.md", "Random init")],
-    "03c": [("compact/table2_compact.md", "only ours is foldover-free"),
-            ("ablation/table4_ablation.md", "Removing LBO features"),
-            ("ablation/table4_ablation.md", "Spectral init"),
-            ("ablation/table4_ablation.md", "Random init")],
-    "04": [("compact/table2_compact.md", "only ours is foldover-free"),
-           ("compact/table2_compact.md", "slower than LSCM"),
-           ("charts/table6_charts.md", "stratified set is mostly valid"), ("pareto/table7_pareto.md", "")],
-    "05": [("compact/table2_compact.md", "only ours is foldover-free"),
-           ("compact/table2_compact.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold"),
-           ("compact/table2_compact.md", "Bob: "), ("compact/table2_compact.md", "Camel: "),
-           ("failure-modes/table3_failure_modes.md", "")],
-    "06": [("ntk/table5.md", ""), ("ablation/table4_ablation.md", "bandwidth rows")],
-    "07": [("charts/table6_charts.md", "small-chart sweep is almost all valid"), ("generated/amara_coverage_validity.md", "")],
-    "09": [("compact/table2_compact.md", "Camel: LSCM and ARAP still fold"),
-           ("compact/table2_compact.md", "OptCuts resolves Hand and Camel")],
+    "00": [("compact/compact_prelim.md", "Camel: SLIM-1k is zero-flip and the better fixed-chart solver"),
+           ("failure-modes/slim_failure_modes.md", "Camel / SLIM-1k")],
+    "00b": [("compact/compact_prelim.md", "only ours is foldover-free"),
+            ("compact/compact_prelim.md", "Camel: LSCM and ARAP still fold")],
+    "01": [("ablation/ablation_prelim.md", "Removing LBO features"),
+           ("ntk/ntk_compact_controls.md", "Spectral inputs raise S(16) at init"),
+           ("ntk/ntk_compact_controls.md", "Spectral inputs raise S(4) at init")],
+    "02": [("ablation/ablation_prelim.md", "Spectral init"),
+           ("ablation/ablation_prelim.md", "Random init")],
+    "03": [("compact/compact_prelim.md", "only ours is foldover-free"),
+           ("compact/compact_prelim.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold")],
+    "03b": [("compact/compact_prelim.md", "only ours is foldover-free"),
+            ("compact/compact_prelim.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold"),
+            ("compact/compact_prelim.md", "Camel: SLIM-1k is zero-flip and the better fixed-chart solver"),
+            ("ablation/ablation_prelim.md", "Spectral init"),
+            ("ablation/ablation_prelim.md", "Random init")],
+    "03c": [("compact/compact_prelim.md", "only ours is foldover-free"),
+            ("ablation/ablation_prelim.md", "Removing LBO features"),
+            ("ablation/ablation_prelim.md", "Spectral init"),
+            ("ablation/ablation_prelim.md", "Random init")],
+    "04": [("compact/compact_prelim.md", "only ours is foldover-free"),
+           ("compact/compact_prelim.md", "slower than LSCM"),
+           ("charts/thingi_scale.md", "stratified set is mostly valid"), ("pareto/runtime_pareto.md", "")],
+    "05": [("compact/compact_prelim.md", "only ours is foldover-free"),
+           ("compact/compact_prelim.md", "Hand: LSCM, ARAP, SLIM-1k and BFF all fold"),
+           ("compact/compact_prelim.md", "Bob: "), ("compact/compact_prelim.md", "Camel: "),
+           ("failure-modes/slim_failure_modes.md", "")],
+    "06": [("ntk/ntk_compact_controls.md", ""), ("ablation/ablation_prelim.md", "bandwidth rows")],
+    "07": [("charts/thingi_scale.md", "small-chart sweep is almost all valid"), ("generated/amara_coverage_validity.md", "")],
+    "09": [("compact/compact_prelim.md", "Camel: LSCM and ARAP still fold"),
+           ("compact/compact_prelim.md", "OptCuts resolves Hand and Camel")],
 }
 
 @dataclass(frozen=True)
@@ -103,6 +103,18 @@ class Claim:
     detail: str
 
 
+def heading(label, what):
+    """A report's heading: the paper's number and label of the table it regenerates, then what it is.
+
+    Examples
+    --------
+    >>> heading("tab:compact_prelim", "compact pre-cut charts")
+    'Table 1 (tab:compact_prelim) — compact pre-cut charts'
+    """
+    number = next(t["number"] for t in PAPER_TABLES if t["label"] == label)
+    return f"Table {number} ({label}) — {what}"
+
+
 def results_dir():
     """The committed ``results/`` folder next to the packages (``$NEURALUV_RESULTS`` overrides it)."""
     env = os.environ.get("NEURALUV_RESULTS")
@@ -111,11 +123,11 @@ def results_dir():
 
 def _table_of(source):
     """The paper's table a results file regenerates: its own entry, or, for a subset run in a
-    sub-folder (``ablation/paper-camel-1k/table4_ablation.md``), its folder's main table's.
+    sub-folder (``ablation/paper-camel-1k/ablation_prelim.md``), its folder's main table's.
 
     Examples
     --------
-    >>> _table_of("ablation/table4_ablation.md")["label"], _table_of("ablation/seeds/table4_ablation.md")["label"]
+    >>> _table_of("ablation/ablation_prelim.md")["label"], _table_of("ablation/seeds/ablation_prelim.md")["label"]
     ('tab:ablation_prelim', 'tab:ablation_prelim')
     >>> _table_of("ablation/notes.md") is None
     True
@@ -146,10 +158,10 @@ def findings(root=None):
     Examples
     --------
     >>> import tempfile; d = Path(tempfile.mkdtemp()); (d / "ablation").mkdir()
-    >>> _ = (d / "ablation" / "table4_ablation.findings.json").write_text(json.dumps({"report": "table4_ablation.md",
+    >>> _ = (d / "ablation" / "ablation_prelim.findings.json").write_text(json.dumps({"report": "ablation_prelim.md",
     ...     "findings": [{"claim": "k=0 hurts", "verdict": "holds", "detail": "6.75 vs 4.35"}]}))
     >>> [(c.table, c.claim, c.verdict, c.source) for c in findings(d)]
-    [(3, 'k=0 hurts', 'holds', 'ablation/table4_ablation.md')]
+    [(3, 'k=0 hurts', 'holds', 'ablation/ablation_prelim.md')]
     """
     root = results_dir() if root is None else Path(root)
     out = []
@@ -198,7 +210,7 @@ def _table(rows, with_notebooks=False, claims=None):
         head, sep = head + " Notebooks |", sep + ":--|"
     lines = [head, sep]
     for c in rows:
-        paper = f"Table {c.table}" if c.table else "—"
+        paper = f"Table {c.table} (`{PAPER_TABLES[c.table - 1]['label']}`)" if c.table else "—"
         evidence = f"`results/{c.source}`" if c.source else "—"
         verdict = f"**{c.verdict}**" + (f": {c.detail}" if c.detail else "")
         line = f"| {paper} | {_cell(c.claim)} | {_cell(verdict)} | {evidence} |"
@@ -254,8 +266,8 @@ def claims_page(root=None):
         "run found, the chapters that discuss it and the report it came with. The rows are read from the findings",
         "each runner writes beside its report (`results/*/*.findings.json`, `neuraluv_paper.claims.findings()`), so",
         "this page, notebook 08 and the checklist at the end of every chapter cannot drift from the numbers. Tables are",
-        "numbered as in the paper's LaTeX (the report file names keep the project's older numbering:",
-        "`table2_compact.md` is the paper's Table 1).",
+        "numbered as in the paper's LaTeX; a report's file name is its table's label (`compact_prelim.md` is",
+        "`tab:compact_prelim`, the paper's Table 1).",
         "",
         "## Claim → notebooks → evidence",
         "",
@@ -277,10 +289,10 @@ def claims_page(root=None):
 
 
 def reference(mesh, method="slim-1k", root=None):
-    """A committed Table 1 row: the reference point a notebook prints beside its own run.
+    """A committed Table 1 (tab:compact_prelim) row: the reference point a notebook prints beside its own run.
 
-    Reads ``results/compact/table2_compact.csv`` (``neuraluv bench compact
-    --preset paper``; the paper's Table 1), so a notebook can set, e.g., SLIM-1k
+    Reads ``results/compact/compact_prelim.csv`` (``neuraluv bench compact
+    --preset paper``; the paper's Table 1, tab:compact_prelim), so a notebook can set, e.g., SLIM-1k
     on the same chart beside its number without spending the 20–40 s SLIM-1k
     takes on Hand.
 
@@ -309,7 +321,7 @@ def reference(mesh, method="slim-1k", root=None):
     >>> r is None or (r["status"] == "ok" and r["flips"] == 0 and r["esd"] > 4)
     True
     """
-    path = (results_dir() if root is None else Path(root)) / "compact" / "table2_compact.csv"
+    path = (results_dir() if root is None else Path(root)) / "compact" / "compact_prelim.csv"
     if not path.is_file():
         return None
     with open(path, newline="", encoding="utf-8") as fh:

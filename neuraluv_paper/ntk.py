@@ -1,12 +1,12 @@
 """NTK–LBO spectral probes: does gradient descent move the chart along mesh harmonics?
 
-The paper's spectral-bias diagnostic (Sec. 3, Table 5): sample 256 vertices by
+The paper's spectral-bias diagnostic (Sec. 3, Table 4, tab:ntk_compact_controls): sample 256 vertices by
 farthest-point sampling, compute the empirical neural tangent kernel ``Θ`` of
 the chart network on them, and compare its top-``r`` eigenspace ``Q_r`` with
 the first ``r`` Laplace–Beltrami eigenfunctions ``Ψ_r`` restricted to the same
 vertices::
 
-    s_r = ‖Q_rᵀ Ψ_r‖²_F / r        (paper, Sec. 3 and Table 5)
+    s_r = ‖Q_rᵀ Ψ_r‖²_F / r        (paper, Sec. 3 and Table 4, tab:ntk_compact_controls)
 
 ``s_r`` is the mean squared cosine of the principal angles between the two
 ``r``-dimensional subspaces: 1 when they coincide, ``r/s`` in expectation for a
@@ -31,7 +31,7 @@ Conventions (the paper leaves them open; these are ours):
   mass weights would change little. ``constant=False`` drops the constant
   mode (``Ψ_r = ψ_1..ψ_r``).
 
-Size: the probes (Gram matrix, eigenvectors, alignment, trajectories) share one chart preparation and the sampling; Table 5's runner uses them all.
+Size: the probes (Gram matrix, eigenvectors, alignment, trajectories) share one chart preparation and the sampling; Table 4's (tab:ntk_compact_controls) runner uses them all.
 """
 from __future__ import annotations
 
@@ -59,7 +59,7 @@ __all__ = [
     "RANKS",
 ]
 
-#: The ranks of Table 5.
+#: The ranks of Table 4 (tab:ntk_compact_controls).
 RANKS = (4, 8, 16)
 
 

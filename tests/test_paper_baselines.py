@@ -170,7 +170,7 @@ def test_neural_wrapper_returns_the_same_type():
     assert run_baseline("neural", *datasets.sphere(1), preset="test").status == "init fail"
 
 
-# ------------------------------------------------- the paper's compact charts (Table 2/3)
+# ------------------------------------------------- the paper's compact charts (Tables 1 and 2, tab:compact_prelim and tab:slim_failure_modes)
 
 @pytest.mark.slow
 def test_camel_lscm_flips_and_slim_converges():

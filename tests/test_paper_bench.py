@@ -54,7 +54,7 @@ def _latex_number(cell):
 
 @pytest.mark.skipif(not PAPER_TEX, reason="the paper's LaTeX is not next to the repository")
 def test_paper_values_are_the_latex_tables_numbers():
-    """Every number of ``paper_values.TABLE2`` is read back from the paper's ``tab:compact_prelim``, row by row."""
+    """Every number of ``paper_values.COMPACT_PRELIM`` is read back from the paper's ``tab:compact_prelim``, row by row."""
     import re
 
     text = PAPER_TEX[0].read_text(encoding="utf-8")
@@ -69,9 +69,9 @@ def test_paper_values_are_the_latex_tables_numbers():
             vals = [_latex_number(c) for c in cells[2:]]
             rows[(cells[0].lower(), names[cells[1]])] = None if vals[0] is None else dict(
                 zip(("esd", "conformal", "area", "flip_percent", "time"), vals))
-    assert set(rows) == set(PV.TABLE2), set(rows) ^ set(PV.TABLE2)
+    assert set(rows) == set(PV.COMPACT_PRELIM), set(rows) ^ set(PV.COMPACT_PRELIM)
     for key, want in rows.items():
-        got = PV.TABLE2[key]
+        got = PV.COMPACT_PRELIM[key]
         assert (got is None) == (want is None), key
         if want is not None:
             assert got == pytest.approx(want, rel=1e-12), (key, got, want)
@@ -117,9 +117,9 @@ def test_compact_quick_rows_statuses_and_resume(tmp_path):
     assert rows[("components", "lscm", "per component")]["status"] == "ok"
     assert rows[("glove", "neural", "whole")]["status"] == "neural" and rows[("glove", "neural", "whole")]["flips"] == 0
     assert rows[("glove", "optcuts", "whole")]["status"] in ("unavailable", "ok", "error")
-    md = (tmp_path / "table2_compact.md").read_text()
+    md = (tmp_path / "compact_prelim.md").read_text()
     assert "| Mesh | Method |" in md and "Machine:" in md and "Produced by" in md and "init fail" in md
-    csv = (tmp_path / "table2_compact.csv").read_text().splitlines()
+    csv = (tmp_path / "compact_prelim.csv").read_text().splitlines()
     assert csv[0].startswith("mesh,mode,method") and len(csv) == 17
     again = bench(quick=True, output=tmp_path, figures=False, show_progress=False, resume=True)
     # every finished row is reused, except "unavailable" ones (an optional binary may have been installed since)
@@ -150,7 +150,7 @@ def test_compact_greys_flipped_distortion_and_prints_paper_values(tmp_path, monk
 
     def fake_load(names, quick=False):  # the curled glove makes ARAP fold; call it "camel"
         V, F = datasets.glove(res=2, curl=2.5, finger_length=7)
-        return [("camel", V, F)], []
+        return [("camel", V, F)]
 
     monkeypatch.setattr(bench_compact, "load_meshes", fake_load)
     res = bench_compact.bench(["camel"], ["lscm", "arap"], output=tmp_path, figures=False, show_progress=False)

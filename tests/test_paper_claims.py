@@ -36,7 +36,7 @@ def test_findings_written_by_a_runner_are_read_back(tmp_path):
 
     found = [("A beats B", True, "3 vs 4"), ("C folds", False, "0 flips"), ("D helps", None, "no tool")]
     (tmp_path / "compact").mkdir()
-    write_markdown(tmp_path / "compact" / "table2_compact.md", "T", findings_markdown(found), command="x",
+    write_markdown(tmp_path / "compact" / "compact_prelim.md", "T", findings_markdown(found), command="x",
                    machine=machine_info("cpu"), findings=found)
     rows = nbhelp.findings(tmp_path)
     assert [(c.table, c.claim, c.verdict, c.detail) for c in rows] == [

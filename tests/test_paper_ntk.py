@@ -208,13 +208,13 @@ def test_bench_runner_writes_table(tmp_path):
 
     assert main(["bench", "ntk", "--meshes", "cap", "--preset", "test", "--iterations", "4", "--samples", "24",
                  "-o", str(tmp_path), "--quiet"]) == 0
-    md = (tmp_path / "table5.md").read_text()
+    md = (tmp_path / "ntk_compact_controls.md").read_text()
     assert "Spectral inputs raise S(16) at init" in md and ("YES" in md or "NO" in md)
-    for f in ("table5.csv", "alignment.csv", "alignment_curves.png", "run.json"):
+    for f in ("ntk_compact_controls.csv", "alignment.csv", "alignment_curves.png", "run.json"):
         assert (tmp_path / f).stat().st_size > 0
     import csv
 
-    rows = list(csv.DictReader(open(tmp_path / "table5.csv")))
+    rows = list(csv.DictReader(open(tmp_path / "ntk_compact_controls.csv")))
     assert len(rows) == 5 and all(0 <= float(r["S16"]) <= 1 for r in rows)
     assert {r["S16_paper"] for r in rows} >= {"0.716", "0.527"}
 

@@ -1,6 +1,6 @@
 """Atlas steps 3–5 in one call: :func:`build_atlas` (repair → candidates → routing → packing → validation).
 
-The routed-face split is the paper's Table 8 quantity (52.1% neural /
+The routed-face split is the paper's Table 7 (tab:amara_coverage_validity) quantity (52.1% neural /
 47.9% fallback on Amara); :class:`AtlasResult` carries it with the UVs.
 """
 from __future__ import annotations
@@ -66,7 +66,7 @@ class AtlasResult:
         return bool(self.validation.get("valid", False))
 
     def totals(self):
-        """Table 8 quantities: coverage, routed face shares, flips, overlaps."""
+        """Table 7 (tab:amara_coverage_validity) quantities: coverage, routed face shares, flips, overlaps."""
         m = len(self.F)
         nf = int((self.face_route == ROUTES["neural"]).sum())
         ne = int((self.face_route == ROUTES["exact"]).sum())

@@ -5,7 +5,7 @@ per-asset timeout (and a soft time budget of 80% of it, after which remaining
 charts become marked fallbacks), so a stuck or crashing asset never takes a
 worker down. Finished assets (a report whose read-back validation passed) are
 skipped on the next run (resume). Results: one CSV row per asset and a
-summary like Table 9 (tried, OK, faces, flips, neural/fallback face shares,
+summary like Table 9 (tab:amara_large_sweep; tried, OK, faces, flips, neural/fallback face shares,
 median time) as CSV and Markdown.
 """
 from __future__ import annotations
@@ -151,7 +151,7 @@ def atlas_asset(path, out_dir, *, timeout=600.0, resume=True, isolate=True, out_
 
 
 def summarize(rows, label="sweep"):
-    """Table 9 row: tried, OK, faces, flips, neural / exact-unfold / fallback face shares, median time.
+    """A Table 9 (tab:amara_large_sweep) row: tried, OK, faces, flips, neural / exact-unfold / fallback face shares, median time.
 
     Face shares are face-weighted over the successful assets.
 

@@ -411,7 +411,7 @@ def register(sub):
     time_budget_option(r, 300)
     r.set_defaults(func=cmd_repair)
 
-    s = sub.add_parser("sweep", help="atlas many assets on a dask cluster; Table 9-style summary",
+    s = sub.add_parser("sweep", help="atlas many assets on a dask cluster; summary like the paper's larger Amara sweep (Table 9)",
                        description="Atlas a folder (or list) of meshes, one subprocess per asset on a dask cluster, "
                                    "with resume and a per-asset timeout; writes per-asset outputs and summary tables.",
                        epilog=EPILOG)

@@ -3,8 +3,11 @@
 Procedural charts are generated in code (no download) and used by the tests,
 the demo and the notebooks. Real meshes are listed in :data:`REGISTRY` with their
 upstream URL and sha256; :func:`fetch` downloads them with pooch, or imports them
-from a local mirror after checking the hash. They are cached under
-``$NEURALUV_DATA`` (default: the user cache directory), never in the repository.
+from a local mirror after checking the hash. They are cached in one folder,
+:func:`data_dir` (``$NEURALUV_DATA``; else the source checkout's
+``.cache/neuraluv-data``, where ``make data`` puts them; else the user cache
+directory), never in the repository. Nothing falls back to a procedural chart
+when a real mesh is missing: :class:`DataMissing` says, in one line, what to run.
 """
 from __future__ import annotations
 
@@ -24,12 +27,16 @@ from neuraluv.topology import components
 
 __all__ = [
     "REGISTRY", "COMPACT", "CLOSED", "LARGE", "data_dir", "fetch", "fetch_all", "available", "load", "load_raw",
-    "load_charts", "DataMissing",
+    "load_charts", "DataMissing", "FETCH_HINT", "checkout",
 ]
 
 
 class DataMissing(NeuralUVError):
-    """A registry mesh is not in the cache (fetch it first)."""
+    """A registry mesh is not in the cache (fetch it first); the message is one line naming the command."""
+
+
+#: What to run when a real mesh is missing (in a checkout; an installed package has ``neuraluv data fetch``).
+FETCH_HINT = "run `make data` in the repository (or `neuraluv data fetch`)"
 
 
 _LIBIGL = "https://github.com/libigl/libigl-tutorial-data/raw/c1f9ede366d02e3531ecbaec5e3769312f31cccd/"
@@ -108,12 +115,25 @@ CLOSED = ["bunny", "cow", "spot", "elephant", "arm", "fertility", "cheburashka",
 LARGE = ["fandisk", "beast", "stanford-bunny", "nefertiti", "ogre"]
 
 
+def checkout():
+    """The source checkout this package runs from (an editable install or ``PYTHONPATH``), or None when installed."""
+    root = Path(__file__).resolve().parents[2]
+    return root if (root / "pyproject.toml").is_file() and (root / "Makefile").is_file() else None
+
+
 def data_dir():
-    """The cache folder: ``$NEURALUV_DATA`` or the user cache (pooch.os_cache)."""
+    """The one data folder, which ``make data``, ``neuraluv data fetch`` and every loader use.
+
+    ``$NEURALUV_DATA`` when set; else, when the package runs from a source checkout,
+    the checkout's ``.cache/neuraluv-data`` (so Jupyter or pytest started anywhere
+    find what ``make data`` fetched); else the user cache (``pooch.os_cache``).
+    """
     env = os.environ.get("NEURALUV_DATA")
     if env:
         return Path(env).expanduser()
-
+    root = checkout()
+    if root is not None:
+        return root / ".cache" / "neuraluv-data"
     return Path(pooch.os_cache("neuraluv"))
 
 
@@ -173,7 +193,7 @@ def fetch(name, source=None, *, download=True):
         os.replace(tmp, dest)
         return dest
     if not download:
-        raise DataMissing(f"registry mesh {name!r} is not cached; run `python data_scripts/fetch.py {name}` (or `--from DIR`)")
+        raise DataMissing(f"the real mesh {name!r} is not in {data_dir()}: {FETCH_HINT}")
 
     try:
         return Path(pooch.retrieve(url, known_hash=f"sha256:{sha}", fname=fname, path=dest.parent, progressbar=False))

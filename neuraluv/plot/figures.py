@@ -15,7 +15,7 @@ from neuraluv.plot.surface import render_surface
 
 __all__ = ["ROUTE_COLORS", "plot_routes", "plot_density", "plot_repair"]
 
-#: The paper's Figure 11 colours: neural charts blue, exact unfolds green, fallbacks red.
+#: The paper's Figure 11 (fig:amara_fallback_limitation) colours: neural charts blue, exact unfolds green, fallbacks red.
 ROUTE_COLORS = {"neural": (0.16, 0.40, 0.80, 1.0), "exact": (0.20, 0.62, 0.35, 1.0), "fallback": (0.86, 0.18, 0.15, 1.0)}
 _ROUTE_ORDER = ("fallback", "neural", "exact")  # face_route codes 0, 1, 2
 

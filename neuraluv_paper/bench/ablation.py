@@ -1,4 +1,4 @@
-"""Table 4: compact ablations (spectral rank, SIREN bandwidth, initialisation).
+"""Table 3 (tab:ablation_prelim): compact ablations (spectral rank, SIREN bandwidth, initialisation).
 
 Each variant changes one :class:`~neuraluv.solver.SolverConfig` field of the
 full model (``k = 16``, ``omega0 = 15``, residual Tutte start) and is solved on
@@ -28,6 +28,7 @@ from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, iteration_o
 from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, command_line, findings_markdown,
                                              fmt_num, fmt_pct, fraction, grey, markdown_table, print_report, progress,
                                              start_run, with_paper, write_csv, write_markdown)
+from neuraluv_paper.claims import heading
 
 __all__ = ["bench", "add_arguments", "run", "VARIANTS", "LABELS", "neural_attempt_metrics"]
 
@@ -75,7 +76,7 @@ def _n_fallback(res):
 
 def bench(meshes=None, variants=None, *, preset=None, quick=False, output="results/ablation", resume=False, seed=0,
           seeds=None, device="auto", show_progress=True, args=None, **overrides):
-    """Run Table 4 and write ``table4_ablation.{csv,md}`` to ``output``.
+    """Run Table 3 (tab:ablation_prelim) and write ``ablation_prelim.{csv,md}`` to ``output``.
 
     Parameters
     ----------
@@ -106,7 +107,7 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
         overrides = {"iterations": 40, "retries": 0, **overrides}
     seeds = [int(x) for x in (seeds if seeds else [seed])]
     base = neural_options(preset, quick, seeds[0], device, **overrides)
-    loaded, missing = load_meshes(names, quick)
+    loaded = load_meshes(names, quick)
     out, machine, log = start_run(output, resume=resume, device=device)
 
     jobs = [(v, n, V, F, sd) for sd in seeds for v in variants for n, V, F in loaded]
@@ -133,7 +134,7 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     findings = _findings(summary)
     table = []
     for s in summary:
-        p = PV.TABLE4.get(s["variant"])
+        p = PV.ABLATION_PRELIM.get(s["variant"])
         esd = fmt_num(s["esd"]) + _pm(s["esd_sd"])
         if not s["all_valid"]:
             esd = "invalid (" + grey(esd) + ")"
@@ -155,12 +156,10 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     fm = findings_markdown(findings)
     if fm:
         body += ["", fm]
-    body += ["", f"Paper caption: “{PV.CAPTIONS['table4']}”"]
+    body += ["", f"Paper caption: “{PV.CAPTIONS['tab:ablation_prelim']}”"]
     notes = [GREY_NOTE, PAPER_NOTE,
              "“Returned as fallback”: charts where every neural attempt ended invalid, so the solver returned its "
              "marked Tutte fallback instead (never a silently flipped map)."]
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     ran = sorted(n for n, _, _ in loaded)
     if ran != sorted(DEFAULT_MESHES):
         notes.append("The paper's numbers in brackets average " + ", ".join(MESH_LABELS[n] for n in DEFAULT_MESHES)
@@ -169,16 +168,16 @@ def bench(meshes=None, variants=None, *, preset=None, quick=False, output="resul
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
     csv_rows = [{**r} for r in rows]
-    files = [write_csv(out / "table4_ablation_runs.csv", csv_rows),
-             write_csv(out / "table4_ablation.csv", [{**s, **_paper_cols(s["variant"])} for s in summary])]
-    md = write_markdown(out / "table4_ablation.md", "Table 4 — compact ablations", "\n".join(body),
+    files = [write_csv(out / "ablation_prelim_runs.csv", csv_rows),
+             write_csv(out / "ablation_prelim.csv", [{**s, **_paper_cols(s["variant"])} for s in summary])]
+    md = write_markdown(out / "ablation_prelim.md", heading("tab:ablation_prelim", "compact ablations"), "\n".join(body),
                         command=command_line("ablation", args), machine=machine, notes=notes, findings=findings)
     files.append(md)
     return BenchOutput("ablation", rows, md.read_text(), files, findings, log.skipped, {"summary": summary})
 
 
 def _paper_cols(v):
-    p = PV.TABLE4.get(v)
+    p = PV.ABLATION_PRELIM.get(v)
     if p is None:
         return {"paper_esd": None, "paper_flip_percent": None, "paper_min_det": None}
     return {"paper_esd": p[0] if p[0] is not None else "invalid", "paper_flip_percent": p[1], "paper_min_det": p[2]}
@@ -228,7 +227,7 @@ def _noise(s):
 
 
 def _findings(summary):
-    """The paper's Table 4 claims, tested on the means; with several seeds a difference
+    """The paper's Table 3 (tab:ablation_prelim) claims, tested on the means; with several seeds a difference
     counts only when it exceeds the two rows' seed spreads added (about two standard errors)."""
     S = {s["variant"]: s for s in summary}
     F = []

@@ -104,7 +104,7 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     names = list(meshes or ["camel", "hand", "bob"])
-    loaded, missing = load_meshes(names)
+    loaded = load_meshes(names)
     machine = machine_info("cpu")
     binary = bff_binary()
     rows = []
@@ -122,7 +122,7 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
             row["rms_distance"], row["max_distance"] = rms, worst
             e0 = ref[name].metrics["esd"]
             row["esd_rel_diff"] = (res.metrics["esd"] - e0) / e0 if math.isfinite(e0) and math.isfinite(res.metrics["esd"]) else None
-        pv = PV.TABLE2.get((name, "bff"))
+        pv = PV.COMPACT_PRELIM.get((name, "bff"))
         row["paper_esd"] = pv["esd"] if pv else None
         row["paper_flip_percent"] = pv["flip_percent"] if pv else None
         rows.append(row)
@@ -130,7 +130,7 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
     table = []
     for r in rows:
         ok = r["status"] == "ok"
-        pv = PV.TABLE2.get((r["mesh"], "bff"))
+        pv = PV.COMPACT_PRELIM.get((r["mesh"], "bff"))
         table.append([MESH_LABELS.get(r["mesh"], r["mesh"]), r["variant"],
                       with_paper(fmt_num(r["esd"]) if ok else r["status"], fmt_num(pv["esd"]) if pv else None),
                       fmt_num(r["conformal"]) if ok else "—", fmt_num(r["area"]) if ok else "—",
@@ -154,8 +154,6 @@ def bff_agreement(meshes=None, *, output="results/baselines", repeats=3, show_pr
     body += ["", "## What the rows say", ""] + _agreement_findings(rows)
     notes = [PAPER_NOTE + " The paper's BFF column is shown beside all three runs.",
              "Flips count faces with det J ≤ 0 (a face whose UV area rounds to zero counts)."]
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     files = [write_csv(out / "bff_agreement.csv", rows)]
     files.append(write_markdown(out / "bff_agreement.md", "BFF: our Python implementation vs the v1.6 binary",
                                 "\n".join(body), command=command_line("baselines", args), machine=machine, notes=notes))
@@ -182,7 +180,7 @@ def _agreement_findings(rows):
             dist = full.get("rms_distance")
             parts.append(f"full precision: E_SD {fmt_num(full['esd'])}, {int(full['flips'])} flips"
                          + (f", map distance to ours {dist:.1e} of the extent (RMS)" if dist is not None else ""))
-        pv = PV.TABLE2.get((mesh, "bff"))
+        pv = PV.COMPACT_PRELIM.get((mesh, "bff"))
         if pv:
             parts.append(f"paper: E_SD {fmt_num(pv['esd'])}, {fmt_pct(pv['flip_percent'])} flips")
         lines.append("; ".join(p for p in parts if p) + ".")
@@ -248,7 +246,7 @@ def optcuts_sample(n_charts=10, *, sources=None, output="results/baselines", res
              "These charts come from the registry's closed meshes, not Thingi10K: fewer and more regular "
              "charts than the paper's sample. xatlas cuts charts that are nearly developable"
              + (f" (median E_SD of OptCuts' maps here: {fmt_num(float(np.median(esd)), 3)})" if esd else "")
-             + ", so this sample hardly stresses OptCuts; Table 2's Hand and Camel are harder tests of it."]
+             + ", so this sample hardly stresses OptCuts; Table 1's (tab:compact_prelim) Hand and Camel are harder tests of it."]
     if failed:
         notes.append("Sources that could not be used: " + "; ".join(f"{s} ({r})" for s, r in failed))
     if log.skipped:

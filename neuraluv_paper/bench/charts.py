@@ -1,4 +1,4 @@
-"""Table 6: the neural solver on xatlas-cut charts, stratified by size.
+"""Table 5 (tab:thingi_scale): the neural solver on xatlas-cut charts, stratified by size.
 
 The paper cuts Thingi10K meshes into charts with xatlas and reports every
 attempted chart with explicit denominators, in two sets: the *first-500*
@@ -36,7 +36,7 @@ import trimesh
 import xatlas
 
 from neuraluv import plot
-from neuraluv.datasets import CLOSED, LARGE, available, load, sphere
+from neuraluv.datasets import CLOSED, FETCH_HINT, LARGE, DataMissing, available, data_dir, load, sphere
 from neuraluv.errors import NeuralUVError
 from neuraluv.meshfix import repair_mesh
 from neuraluv.topology import is_disk_like
@@ -46,6 +46,7 @@ from neuraluv_paper.bench.common import LABELS, iteration_override, neural_optio
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, RowLog, command_line, findings_markdown, fmt_num,
                                              fmt_time, fraction, markdown_table, print_report, progress, save_figure,
                                              start_run, write_csv, write_markdown)
+from neuraluv_paper.claims import heading
 
 __all__ = ["bench", "add_arguments", "run", "STRATA", "SMALL_STRATA", "FIRST", "stratum", "xatlas_charts", "chart_pool",
            "select_charts", "subdivided_charts", "chart_arrays", "CAPS", "PYVISTA_MESHES", "default_sources"]
@@ -111,9 +112,16 @@ def _load_source(name):
 
 
 def default_sources(large=False):
-    """Cached closed registry meshes plus pyvista's offline meshes (and, with ``large``, the large registry meshes)."""
+    """The closed registry meshes plus pyvista's offline meshes (and, with ``large``, the large registry meshes).
+
+    Raises :class:`~neuraluv.datasets.DataMissing` (one line) when a registry mesh is not cached: a sweep
+    over fewer meshes than the table's would read as a result.
+    """
     names = CLOSED + (LARGE if large else [])
-    return [n for n in names if available(n)] + [f"pv:{n}" for n in PYVISTA_MESHES]
+    missing = [n for n in names if not available(n)]
+    if missing:
+        raise DataMissing(f"the real mesh(es) {', '.join(missing)} not in {data_dir()}: {FETCH_HINT}")
+    return names + [f"pv:{n}" for n in PYVISTA_MESHES]
 
 
 def xatlas_charts(V, F):
@@ -280,7 +288,7 @@ def select_charts(pool, n_charts=47, strata=STRATA, max_per_stratum=None):
 def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="results/charts", resume=False, seed=0,
           device="auto", show_progress=True, baselines=("bff", "bff-cli", "slim-1k"), max_large=None, first=None,
           subdivide=3, neural=True, k0=False, from_log=False, args=None, **overrides):
-    """Run Table 6 over xatlas-cut charts and write ``table6_charts.{csv,md}``.
+    """Run Table 5 (tab:thingi_scale) over xatlas-cut charts and write ``thingi_scale.{csv,md}``.
 
     Parameters
     ----------
@@ -379,7 +387,7 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
                       s["face_range"], fmt_num(s["median_esd"]), fmt_time(s["mean_time"]) + "s"])
     ptable = [[f"paper: {k}", str(v["tried"]), str(v["finite"]), f"{v['valid']}/{v['tried']} ({v['valid_percent']}%)",
                f"{v['faces'][0]:,}–{v['faces'][1]:,}", fmt_num(v["median_esd"]), f"{v['mean_time']:.2f}s"]
-              for k, v in PV.TABLE6.items()]
+              for k, v in PV.THINGI_SCALE.items()]
     header = ["Subset", "Tried", "Finite", "Valid", "Face range", "Med. E_SD (valid)", "Mean time"]
     btable = []
     for b in list(baselines) + (["neural-k0"] if k0 else []):
@@ -407,11 +415,11 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
     fm = findings_markdown(findings)
     if fm:
         body += ["", fm]
-    body += ["", f"Paper caption: “{PV.CAPTIONS['table6']}”"]
+    body += ["", f"Paper caption: “{PV.CAPTIONS['tab:thingi_scale']}”"]
     notes = [PAPER_NOTE,
              "Valid = the neural solver returned its own map (not a marked fallback) with finite UVs, zero flipped "
              "triangles and positive minimum det J. Finite = the best neural attempt has finite UVs. "
-             "The per-chart rows are in `table6_charts_runs.csv`."]
+             "The per-chart rows are in `thingi_scale_runs.csv`."]
     if rejected:
         reasons = {}
         for c in rejected:
@@ -439,9 +447,9 @@ def bench(sources=None, *, n_charts=None, preset=None, quick=False, output="resu
         notes.append("Sources that could not be used: " + "; ".join(f"{s} ({r})" for s, r in failed))
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
-    files = [write_csv(out / "table6_charts_runs.csv", rows), write_csv(out / "table6_charts.csv", summary)]
+    files = [write_csv(out / "thingi_scale_runs.csv", rows), write_csv(out / "thingi_scale.csv", summary)]
     files.append(_figure(out, rows))
-    md = write_markdown(out / "table6_charts.md", "Table 6 — xatlas-cut charts, stratified by size", "\n".join(body)
+    md = write_markdown(out / "thingi_scale.md", heading("tab:thingi_scale", "xatlas-cut charts, stratified by size"), "\n".join(body)
                         + f"\n\n![valid vs size]({files[-1].name})", command=command_line("charts", args),
                         machine=machine, notes=notes, findings=findings)
     files.append(md)

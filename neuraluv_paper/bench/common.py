@@ -7,14 +7,13 @@ import time
 import numpy as np
 
 from neuraluv import datasets
-from neuraluv.errors import NeuralUVError
 from neuraluv.metrics import distortion_metrics
 from neuraluv.relax import slim_relax
 
 __all__ = ["METHODS", "LABELS", "RECUT", "DEFAULT_MESHES", "QUICK_MESHES", "QUICK_SIZES", "QUICK_METHODS", "MESH_LABELS",
            "load_meshes", "neural_options", "result_row", "iteration_override", "peak_rss_mb", "slim_reference"]
 
-#: Table 2's methods, in the paper's order (OptCuts last: it recuts), then the external tools the
+#: Table 1's (tab:compact_prelim) methods, in the paper's order (OptCuts last: it recuts), then the external tools the
 #: paper names beside them: the BFF v1.6 binary next to our BFF, and Blender's unwrappers (optional
 #: binaries / ``bpy``: rows read ``unavailable`` without them, and ``--resume`` recomputes such rows).
 METHODS = ["lscm", "arap", "slim-1k", "bff", "bff-cli", "neural", "optcuts",
@@ -32,18 +31,22 @@ QUICK_MESHES = ["glove", "components"]
 #: Smaller procedural sizes for quick runs.
 QUICK_SIZES = {"glove": {"res": 2}, "components": {"n_rings": 4}, "cap": {"n_rings": 5}, "saddle": {"n_rings": 5},
                "bumpy": {"n_rings": 5}, "disk": {"n_rings": 5}}
-#: Table 2's methods under ``quick``: SLIM-20 stands in for SLIM-1k.
+#: Table 1's (tab:compact_prelim) methods under ``quick``: SLIM-20 stands in for SLIM-1k.
 QUICK_METHODS = ["lscm", "arap", "slim-20", "bff", "neural", "optcuts"]
 MESH_LABELS = {"hand": "Hand", "bob": "Bob", "camel": "Camel"}
 
 
 def load_meshes(names, quick=False):
-    """Load meshes by name; returns ``(loaded, missing)``.
+    """Load meshes by name: a list of ``(name, V, F)``, one per name.
 
-    ``loaded`` is a list of ``(name, V, F)``; ``missing`` a list of
-    ``(name, reason)`` for meshes that are not cached (never raises for that).
-    Under ``quick``, procedural meshes are built at the small
-    :data:`QUICK_SIZES`.
+    Under ``quick``, procedural meshes are built at the small :data:`QUICK_SIZES`.
+    A real mesh that is not cached is an error, never a row left out: a table
+    with fewer meshes than asked for would read as a result.
+
+    Raises
+    ------
+    neuraluv.datasets.DataMissing
+        One line naming every missing mesh, the folder searched and ``make data``.
     """
     loaded, missing = [], []
     for n in names:
@@ -52,11 +55,14 @@ def load_meshes(names, quick=False):
                 V, F = datasets.procedural(n, **QUICK_SIZES[n])
             else:
                 V, F = datasets.load(n)
-        except NeuralUVError as exc:
-            missing.append((n, str(exc)))
+        except datasets.DataMissing:
+            missing.append(n)
             continue
         loaded.append((n, np.asarray(V, float), np.asarray(F, np.int64)))
-    return loaded, missing
+    if missing:
+        raise datasets.DataMissing(f"the real mesh(es) {', '.join(missing)} not in {datasets.data_dir()}: "
+                                   f"{datasets.FETCH_HINT}")
+    return loaded
 
 
 def neural_options(preset, quick, seed=0, device="auto", **overrides):

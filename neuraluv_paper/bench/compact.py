@@ -1,4 +1,4 @@
-"""Table 2: the compact pre-cut chart benchmark (Hand, Bob, Camel).
+"""Table 1 (tab:compact_prelim): the compact pre-cut chart benchmark (Hand, Bob, Camel).
 
 Every method runs through :func:`neuraluv_paper.baselines.run_baseline` and is
 measured by the one metric definition, so the rows compare like with like.
@@ -33,6 +33,7 @@ from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, ME
 from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput, bold, command_line, findings_markdown,
                                              fmt_num, fmt_pct, fmt_time, grey, markdown_table, print_report, progress,
                                              save_figure, start_run, with_paper, write_csv, write_markdown)
+from neuraluv_paper.claims import heading
 
 __all__ = ["bench", "add_arguments", "run"]
 
@@ -60,7 +61,7 @@ def _load_uv(out, mesh, method, mode):
 
 def bench(meshes=None, methods=None, *, preset=None, quick=False, output="results/compact", resume=False, seed=0,
           device="auto", show_progress=True, figures=True, per_component=True, args=None, **overrides):
-    """Run Table 2 and write ``table2_compact.{csv,md}`` (+ figures) to ``output``.
+    """Run Table 1 (tab:compact_prelim) and write ``compact_prelim.{csv,md}`` (+ figures) to ``output``.
 
     Parameters
     ----------
@@ -87,7 +88,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (QUICK_METHODS if quick else METHODS))
     nkw = neural_options(preset, quick, seed, device, **overrides)
-    loaded, missing = load_meshes(names, quick)
+    loaded = load_meshes(names, quick)
     out, machine, log = start_run(output, resume=resume, device=device)
 
     jobs = []
@@ -138,14 +139,12 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
                       f"{r['status']} — {r['reason']}" for r in rows if r["status"] not in ("ok", "neural") and r["reason"]})
     if reasons:
         notes.append("Status details:\n\n" + "\n".join(f"- {s}" for s in reasons))
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log ({out / 'rows.jsonl'}).")
     fm = findings_markdown(findings)
     if fm:
         body += ["", fm]
-    body += ["", f"Paper caption: “{PV.CAPTIONS['table2']}”"]
+    body += ["", f"Paper caption: “{PV.CAPTIONS['tab:compact_prelim']}”"]
 
     files = []
     if figures:
@@ -161,8 +160,8 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
         if files:
             body += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in files]
     command = command_line("compact", args)
-    files.insert(0, write_csv(out / "table2_compact.csv", csv_rows))
-    md = write_markdown(out / "table2_compact.md", "Table 2 — compact pre-cut charts", "\n".join(body),
+    files.insert(0, write_csv(out / "compact_prelim.csv", csv_rows))
+    md = write_markdown(out / "compact_prelim.md", heading("tab:compact_prelim", "compact pre-cut charts"), "\n".join(body),
                         command=command, machine=machine, notes=notes, findings=findings)
     files.insert(1, md)
     return BenchOutput("compact", rows, md.read_text(), files, findings, log.skipped)
@@ -178,9 +177,9 @@ def _uncached(out, rows, loaded, methods):
 
 def _paper(name, meth, mode):
     meth = PV.paper_method(meth)
-    if mode != "whole" or (name, meth) not in PV.TABLE2:
+    if mode != "whole" or (name, meth) not in PV.COMPACT_PRELIM:
         return None, False
-    return PV.TABLE2[(name, meth)], (name, meth) in PV.TABLE2_GREYED
+    return PV.COMPACT_PRELIM[(name, meth)], (name, meth) in PV.COMPACT_PRELIM_GREYED
 
 
 def _format(rows):
@@ -205,10 +204,10 @@ def _format(rows):
             elif produced and r.get("valid") and r["method"] not in RECUT and r[k] == best.get((r["mesh"], r["mode"], k)):
                 s = bold(s)
             p = None
-            if (r["mesh"], PV.paper_method(r["method"])) in PV.TABLE2 and r["mode"] == "whole":
+            if (r["mesh"], PV.paper_method(r["method"])) in PV.COMPACT_PRELIM and r["mode"] == "whole":
                 p = "—" if pv is None else (grey(fmt_num(pv[k])) if pgrey else fmt_num(pv[k]))
             cells.append(with_paper(s, p))
-        has_p = (r["mesh"], PV.paper_method(r["method"])) in PV.TABLE2 and r["mode"] == "whole"
+        has_p = (r["mesh"], PV.paper_method(r["method"])) in PV.COMPACT_PRELIM and r["mode"] == "whole"
         cells.append(with_paper(fmt_pct(r["flip_percent"]) if produced else "—",
                                 ("—" if pv is None else fmt_pct(pv["flip_percent"])) if has_p else None))
         cells.append(fmt_num(r["min_det"], 3) if produced else "—")
@@ -265,7 +264,7 @@ def _desc(r):
 
 
 def _findings(rows, names):
-    """Check the paper's qualitative Table 2 statements on our rows."""
+    """Check the paper's qualitative Table 1 (tab:compact_prelim) statements on our rows."""
     F = []
     have = {r["mesh"] for r in rows}
     fixed = [m for m in ("lscm", "arap", "slim-1k", "bff") if any(r["method"] == m for r in rows)]

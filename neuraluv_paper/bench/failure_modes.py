@@ -1,4 +1,4 @@
-"""Table 3: the compact baselines' failure modes.
+"""Table 2 (tab:slim_failure_modes): the compact baselines' failure modes.
 
 For each compact chart: components / boundary loops from
 :func:`neuraluv.topology.topology_scan`, then SLIM-20, SLIM-1k, BFF and OptCuts
@@ -19,10 +19,11 @@ from neuraluv_paper.bench.common import (DEFAULT_MESHES, LABELS, MESH_LABELS, QU
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
                                              markdown_table, print_report, progress, start_run, with_paper, write_csv,
                                              write_markdown)
+from neuraluv_paper.claims import heading
 
 __all__ = ["bench", "add_arguments", "run", "METHODS", "PAPER_METHODS", "cell"]
 
-#: Table 3's columns after C/B (the paper's four, then the BFF binary beside our BFF and Blender's unwrappers).
+#: Table 2's (tab:slim_failure_modes) columns after C/B (the paper's four, then the BFF binary beside our BFF and Blender's unwrappers).
 METHODS = ["slim-20", "slim-1k", "bff", "bff-cli", "optcuts", "blender-angle", "blender-conformal",
            "blender-minstretch", "blender-smart"]
 #: The paper's own columns (its findings are checked for these).
@@ -50,7 +51,7 @@ def cell(row):
 
 
 def _paper_cell(mesh, meth):
-    v = PV.TABLE3.get(mesh, {}).get(PV.paper_method(meth))
+    v = PV.SLIM_FAILURE_MODES.get(mesh, {}).get(PV.paper_method(meth))
     if v is None:
         return None
     kind, x = v
@@ -63,7 +64,7 @@ def _paper_cell(mesh, meth):
 
 def bench(meshes=None, methods=None, *, preset=None, quick=False, output="results/failure-modes", resume=False,
           seed=0, device="auto", show_progress=True, neural=True, args=None, **overrides):
-    """Run Table 3 and write ``table3_failure_modes.{csv,md}`` to ``output``.
+    """Run Table 2 (tab:slim_failure_modes) and write ``slim_failure_modes.{csv,md}`` to ``output``.
 
     Parameters
     ----------
@@ -81,7 +82,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     names = list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES))
     methods = list(methods or (PAPER_METHODS if quick else METHODS)) + (["neural"] if neural else [])
     nkw = neural_options(preset, quick, seed, device, **overrides)
-    loaded, missing = load_meshes(names, quick)
+    loaded = load_meshes(names, quick)
     out, machine, log = start_run(output, resume=resume, device=device)
 
     rows, topo = [], {}
@@ -102,7 +103,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     table, csv_rows = [], []
     for n, _, _ in loaded:
         c, b = topo[n]
-        pcb = PV.TABLE3.get(n, {}).get("cb")
+        pcb = PV.SLIM_FAILURE_MODES.get(n, {}).get("cb")
         line = [MESH_LABELS.get(n, n), with_paper(f"{c}/{b}", f"{pcb[0]}/{pcb[1]}" if pcb else None)]
         for m in methods:
             r = next(r for r in rows if r["mesh"] == n and r["method"] == m)
@@ -119,7 +120,7 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
     fm = findings_markdown(findings)
     if fm:
         body += ["", fm]
-    body += ["", f"Paper caption: “{PV.CAPTIONS['table3']}”"]
+    body += ["", f"Paper caption: “{PV.CAPTIONS['tab:slim_failure_modes']}”"]
     notes = [PAPER_NOTE, "C/B: connected components / boundary loops (topology scan).",
              "Cells: the flip rate when the map folds, E_SD when it is valid, otherwise the status "
              "(`init fail`: the method cannot start on this input; `unavailable`: the optional binary is absent; "
@@ -128,12 +129,10 @@ def bench(meshes=None, methods=None, *, preset=None, quick=False, output="result
                       for r in rows if r["status"] not in ("ok", "neural") and r.get("reason")})
     if reasons:
         notes.append("Status details:\n\n" + "\n".join(f"- {s}" for s in reasons))
-    if missing:
-        notes.append("Not run (mesh not cached; `neuraluv data fetch`): " + ", ".join(n for n, _ in missing))
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
-    files = [write_csv(out / "table3_failure_modes.csv", csv_rows)]
-    md = write_markdown(out / "table3_failure_modes.md", "Table 3 — compact baseline failure modes", "\n".join(body),
+    files = [write_csv(out / "slim_failure_modes.csv", csv_rows)]
+    md = write_markdown(out / "slim_failure_modes.md", heading("tab:slim_failure_modes", "compact baseline failure modes"), "\n".join(body),
                         command=command_line("failure-modes", args), machine=machine, notes=notes, findings=findings)
     files.append(md)
     return BenchOutput("failure-modes", rows, md.read_text(), files, findings, log.skipped)
@@ -144,7 +143,7 @@ def _findings(rows):
         return next((r for r in rows if r["mesh"] == mesh and r["method"] == meth), None)
 
     F = []
-    for mesh, spec in PV.TABLE3.items():
+    for mesh, spec in PV.SLIM_FAILURE_MODES.items():
         for meth in PAPER_METHODS + ["bff-cli"]:  # the BFF binary is judged against the paper's BFF column
             r = get(mesh, meth)
             if r is None or PV.paper_method(meth) not in spec:

@@ -49,6 +49,7 @@ from neuraluv_paper.bench.common import load_meshes
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
                                              fmt_time, fraction, markdown_table, print_report, progress, start_run,
                                              with_paper, write_csv, write_markdown)
+from neuraluv_paper.claims import heading
 
 __all__ = ["bench", "ours_row", "blender_row", "add_arguments", "run", "BLENDER"]
 
@@ -152,7 +153,7 @@ def _assets(n, meshes, quick):
         V, F, info = generated_asset(i, res=16 if quick else None)
         out.append((info["name"], V, F))
     if meshes:
-        loaded, _ = load_meshes(list(meshes), quick)
+        loaded = load_meshes(list(meshes), quick)
         out += loaded
     return out
 
@@ -293,8 +294,7 @@ def bench(n_assets=25, meshes=None, *, preset=None, quick=False, output="results
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
     cmd = command_line("generated", args)
     files = [write_csv(out / "amara_runs.csv", rows),
-             write_markdown(out / "amara_coverage_validity.md", "Generated meshes — coverage and validity "
-                            "(tab:amara_coverage_validity)", "\n".join(body), command=cmd, machine=machine, notes=notes,
+             write_markdown(out / "amara_coverage_validity.md", heading("tab:amara_coverage_validity", "generated meshes: coverage and validity"), "\n".join(body), command=cmd, machine=machine, notes=notes,
                             findings=findings)]
     bbody = [f"Blender's unwraps of the same {n} assets (bpy 4.5, each operator's defaults), counted on loop UVs: "
              "Angle Based and Conformal on **our charts** (the repaired mesh cut along our atlas's seams, each chart "
@@ -303,8 +303,7 @@ def bench(n_assets=25, meshes=None, *, preset=None, quick=False, output="results
              "σ1/σ2 of the unflipped triangles.", "",
              markdown_table(["Method", "OK", "Zero-flip", "Flips", "Conf."], bl_rows)]
     files.append(write_csv(out / "amara_blender_methods.csv", list(bsum.values())))
-    files.append(write_markdown(out / "amara_blender_methods.md", "Generated meshes — Blender's unwraps "
-                                "(tab:amara_blender_methods)", "\n".join(bbody), command=cmd, machine=machine,
+    files.append(write_markdown(out / "amara_blender_methods.md", heading("tab:amara_blender_methods", "generated meshes: Blender's unwraps"), "\n".join(bbody), command=cmd, machine=machine,
                                 notes=notes[:3]))
     summary = None
     if sweep_assets:
@@ -317,7 +316,7 @@ def bench(n_assets=25, meshes=None, *, preset=None, quick=False, output="results
                   f"{v['neural_share']} / — / {v['fallback_share']}%", f"{v['median_time']}s"] for k, v in p.items()]
         files.append(write_csv(out / "amara_large_sweep.csv", [s]))
         files.append(write_markdown(
-            out / "amara_large_sweep.md", "Generated meshes — larger sweep (tab:amara_large_sweep)",
+            out / "amara_large_sweep.md", heading("tab:amara_large_sweep", "generated meshes: larger sweep"),
             f"`neuraluv sweep` (dask LocalCluster, {workers} workers, one subprocess per asset) over generated assets "
             f"0–{sweep_assets - 1}, `{preset}` preset, default packer. The paper's rows ran its Rust implementation "
             "on Amara Spatial GLB assets (routing, validation and packing; neural optimisation only in the "

@@ -1,6 +1,6 @@
-"""``neuraluv bench ntk``: the NTK–LBO alignment table (paper Table 5) on the compact charts.
+"""``neuraluv bench ntk``: the NTK–LBO alignment table (paper's Table 4, tab:ntk_compact_controls) on the compact charts.
 
-For each compact chart (Hand, Bob, Camel) and each setting of Table 5, build
+For each compact chart (Hand, Bob, Camel) and each setting of Table 4 (tab:ntk_compact_controls), build
 the chart network exactly as :func:`neuraluv.solver.solve_chart` does, probe
 its NTK at initialisation (the ``warmup_end`` callback; the residual Tutte
 warm-up is stationary) and after optimisation (``ChartResult.network``), and
@@ -8,8 +8,8 @@ average ``S(4), S(8), S(16)`` over the charts. Bob has three components; we
 probe its **largest** component (2,705 of 5,647 vertices) as "the Bob chart".
 
 Outputs (default ``results/ntk/``): ``alignment.csv`` (per chart and setting,
-full curves r = 1..16, both LBO-basis conventions), ``table5.csv`` and
-``table5.md`` (averages beside the paper's numbers, with the effect checks
+full curves r = 1..16, both LBO-basis conventions), ``ntk_compact_controls.csv`` and
+``ntk_compact_controls.md`` (averages beside the paper's numbers, with the effect checks
 computed from the data), ``alignment_curves.png``, ``run.json`` and
 ``trajectory.csv`` / ``trajectory.png`` (S(r) over optimisation of the k=16
 solves, which end valid, and, with ``--trajectory``, of the random-init
@@ -52,20 +52,21 @@ from neuraluv.io import write_csv
 from neuraluv.plot import plot_alignment_curves
 from neuraluv.solver import get_config, resolve_device, solve_chart
 from neuraluv_paper.bench.ntk_trajectory import draw_probe, milestones, probe_markdown, trajectory_probe
-from neuraluv_paper.bench.paper_values import TABLE5
+from neuraluv_paper.bench.paper_values import NTK_COMPACT_CONTROLS
 from neuraluv_paper.bench.provenance import command_line, machine_info, machine_line, write_findings
 from neuraluv_paper.ntk import TrajectoryRecorder, alignment_curve, make_probe
+from neuraluv_paper.claims import heading
 
 __all__ = ["PAPER_TABLE5", "CHARTS", "SETTINGS", "add_arguments", "run", "effect_checks"]
 
-#: Table 5 of the paper (compact rows average Hand, Bob, Camel):
+#: Table 4 (tab:ntk_compact_controls) of the paper (compact rows average Hand, Bob, Camel):
 #: ``(set, state, k, omega0) -> (S4, S8, S16)`` — the one copy in :mod:`neuraluv_paper.bench.paper_values`.
-PAPER_TABLE5 = TABLE5
+PAPER_TABLE5 = NTK_COMPACT_CONTROLS
 
 #: The compact charts of the paper.
 CHARTS = ("hand", "bob", "camel")
 
-#: Table 5's compact rows: ``(state, k, omega0)``; "final" rows need a solve.
+#: Table 4's (tab:ntk_compact_controls) compact rows: ``(state, k, omega0)``; "final" rows need a solve.
 SETTINGS = (
     ("init", 0, 15.0),
     ("init", 16, 15.0),
@@ -139,7 +140,7 @@ def _curve_cols(curve, prefix="s"):
 
 
 def _markdown(table, table_nc, checks, info, args, timing, per_chart, probe=None):
-    L = ["# NTK–LBO alignment on the compact charts (paper Table 5)", ""]
+    L = ["# " + heading("tab:ntk_compact_controls", "NTK–LBO alignment on the compact charts"), ""]
     L.append(f"Produced by `{command_line('ntk', args)}` on {info['date']}.")
     L.append("")
     L.append(f"Charts: {', '.join(_charts(args))} (Bob: largest component). FPS samples: {args.samples}, "
@@ -221,8 +222,10 @@ def run(args):
     for name in _charts(args):
         try:
             charts[name] = datasets.load_charts(name, largest=True)[0]
-        except Exception as exc:  # missing data is a user error, not a crash
-            raise NeuralUVError(f"cannot load chart {name!r}: {exc} (set NEURALUV_DATA / run `neuraluv data`)") from exc
+        except datasets.DataMissing as exc:  # missing data is a user error, not a crash
+            raise datasets.DataMissing(f"cannot load chart {name!r}: {exc}") from None
+        except Exception as exc:
+            raise NeuralUVError(f"cannot load chart {name!r}: {exc}") from exc
 
     if getattr(args, "probe_timing", False):
         return _probe_timing(charts, get_config(preset), args, device)
@@ -318,10 +321,10 @@ def run(args):
                    "S16": round(t["S16"], 4), "S16_paper": p[2],
                    "S4_nonconst": round(table_nc[key]["S4"], 4), "S8_nonconst": round(table_nc[key]["S8"], 4),
                    "S16_nonconst": round(table_nc[key]["S16"], 4)})
-    write_csv(out / "table5.csv", t5)
+    write_csv(out / "ntk_compact_controls.csv", t5)
     timing = {"total": total, "preset": preset, "iterations": iterations}
-    (out / "table5.md").write_text(_markdown(table, table_nc, checks, info, args, timing, per_chart, probe))
-    write_findings(out / "table5.md", [(claim, holds, f"{ev}.") for claim, holds, ev in checks])
+    (out / "ntk_compact_controls.md").write_text(_markdown(table, table_nc, checks, info, args, timing, per_chart, probe))
+    write_findings(out / "ntk_compact_controls.md", [(claim, holds, f"{ev}.") for claim, holds, ev in checks])
     (out / "run.json").write_text(json.dumps({"machine": info, "args": {k: v for k, v in vars(args).items() if k != "func"},
                                               "timing": timing, "checks": [list(c) for c in checks]}, indent=2, default=str))
 
@@ -351,8 +354,8 @@ def run(args):
         fig.savefig(out / "trajectory.png", dpi=110)
         plt.close(fig)
 
-    print((out / "table5.md").read_text())
-    print(f"wrote {out}/table5.md, table5.csv, alignment.csv, alignment_curves.png" + (", trajectory.csv, trajectory.png" if traj_rows else "")
+    print((out / "ntk_compact_controls.md").read_text())
+    print(f"wrote {out}/ntk_compact_controls.md, ntk_compact_controls.csv, alignment.csv, alignment_curves.png" + (", trajectory.csv, trajectory.png" if traj_rows else "")
           + f" in {total:.0f} s")
     return 0
 

@@ -1,9 +1,9 @@
-"""``neuraluv bench ntk --trajectory``: the NTK–LBO alignment followed over a solve (the paper's Figure 8).
+"""``neuraluv bench ntk --trajectory``: the NTK–LBO alignment followed over a solve (the paper's Fig. 8, fig:ntk_trajectory).
 
 For each of ``n_charts`` xatlas charts the probe records S(16) along the
 optimisation of the recipe (Tutte residual) and of a random absolute start, and
 correlates the alignment with the flip rate and the determinant margin (Pearson r
-beside the paper's). ``trajectory_probe.{csv,png}`` and a Markdown block for ``table5.md``.
+beside the paper's). ``trajectory_probe.{csv,png}`` and a Markdown block for ``ntk_compact_controls.md``.
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def milestones(n):
     return sorted({max(1, int(round(f * n))) for f in (0.05, 0.1, 0.25, 0.5, 0.75)} - {n}) if n > 0 else []
 
 
-#: The paper's strongest |r| of early S(r) with the final flip rate / final det margin (Fig. 8's text).
+#: The paper's strongest |r| of early S(r) with the final flip rate / final det margin (Fig. 8 (fig:ntk_trajectory) and its text).
 PAPER_PROBE_R = {"flip_percent": 0.41, "min_det": 0.44}
 PROBE_RUNS = (("tutte-residual", {}), ("random-absolute", {"init": "random", "residual": False}))
 
@@ -161,7 +161,7 @@ def _at(c):
 
 def probe_markdown(probe):
     runs = probe["runs"]
-    L = ["## Trajectory probe (paper Fig. 7)", ""]
+    L = ["## Trajectory probe (the paper's Fig. 8, fig:ntk_trajectory)", ""]
     L.append(f"{probe['charts']} disk-like xatlas charts of {probe['faces'][0]:,}–{probe['faces'][1]:,} faces; preset "
              f"`{probe['preset']}`, {probe['iterations']} iterations, k = 16, no retry; per chart the recipe's solve "
              "(Tutte residual) and the random absolute initialisation. S(r) probed after warm-up, at 5/10/25/50/75% "

@@ -1,15 +1,15 @@
 """The paper's published numbers, copied from its LaTeX (Sec. 5).
 
-The benchmark runners print these beside our measurements. Table numbers follow
-the project's numbering (Table 2 = ``tab:compact_prelim`` ... Table 7 =
-``tab:runtime_pareto``); each constant names its LaTeX label too. ``None``
+The benchmark runners print these beside our measurements. Tables are numbered as
+in the paper's LaTeX (Table 1 is ``tab:compact_prelim``, Table 9 ``tab:amara_large_sweep``);
+each constant is named after its table's LaTeX label. ``None``
 means the paper prints a dash (initialisation or cleanup failure).
 
 Percentages are stored as percent (``13.56`` for "13.56\\%"), times in seconds.
 """
 from __future__ import annotations
 
-__all__ = ["PAPER_METHOD", "paper_method", "TABLE2", "TABLE2_GREYED", "TABLE3", "TABLE4", "TABLE5", "TABLE6", "TABLE7", "AMARA_COVERAGE", "AMARA_BLENDER",
+__all__ = ["PAPER_METHOD", "paper_method", "COMPACT_PRELIM", "COMPACT_PRELIM_GREYED", "SLIM_FAILURE_MODES", "ABLATION_PRELIM", "NTK_COMPACT_CONTROLS", "THINGI_SCALE", "RUNTIME_PARETO", "AMARA_COVERAGE", "AMARA_BLENDER",
            "AMARA_SWEEP", "TEXT", "CAPTIONS"]
 
 #: Our methods whose rows carry another method's paper value: the paper's BFF column is shown beside
@@ -28,10 +28,10 @@ def paper_method(method):
     return PAPER_METHOD.get(method, method)
 
 
-# ------------------------------------------------------------------ Table 2
+# ------------------------------------------------------------------ Table 1 (tab:compact_prelim)
 #: ``tab:compact_prelim``: (mesh, method) -> metrics. Keys of the metric dicts
 #: match :func:`neuraluv.metrics.distortion_metrics` (``flip_percent``) plus ``time``.
-TABLE2 = {
+COMPACT_PRELIM = {
     ("hand", "lscm"): {"esd": 1.47e9, "conformal": 8.98, "area": 27.71, "flip_percent": 13.56, "time": 0.001},
     ("hand", "arap"): {"esd": 1262.61, "conformal": 10.47, "area": 1.58, "flip_percent": 15.74, "time": 0.004},
     ("hand", "slim-1k"): {"esd": 7.86e7, "conformal": 7.85, "area": 27.54, "flip_percent": 13.56, "time": 1.194},
@@ -52,14 +52,14 @@ TABLE2 = {
     ("camel", "optcuts"): {"esd": 4.09, "conformal": 1.15, "area": 0.02, "flip_percent": 0.00, "time": 0.110},
 }
 
-#: Table 2 rows whose distortion the paper greys (the map still has flips).
-TABLE2_GREYED = {k for k, v in TABLE2.items() if v is not None and v["flip_percent"] > 0}
+#: Table 1 (tab:compact_prelim) rows whose distortion the paper greys (the map still has flips).
+COMPACT_PRELIM_GREYED = {k for k, v in COMPACT_PRELIM.items() if v is not None and v["flip_percent"] > 0}
 
-# ------------------------------------------------------------------ Table 3
+# ------------------------------------------------------------------ Table 2 (tab:slim_failure_modes)
 #: ``tab:slim_failure_modes``: mesh -> {"cb": (components, boundary loops),
 #: method: (kind, value)} with kind ``"flips"`` (flip %), ``"esd"``,
 #: ``"init fail"`` or ``"cleanup fail"`` (value None).
-TABLE3 = {
+SLIM_FAILURE_MODES = {
     "hand": {"cb": (1, 1), "slim-20": ("flips", 13.56), "slim-1k": ("flips", 13.56), "bff": ("flips", 13.80),
              "optcuts": ("esd", 4.10)},
     "bob": {"cb": (3, 3), "slim-20": ("init fail", None), "slim-1k": ("init fail", None), "bff": ("esd", 14.04),
@@ -68,10 +68,10 @@ TABLE3 = {
               "optcuts": ("esd", 4.09)},
 }
 
-# ------------------------------------------------------------------ Table 4
+# ------------------------------------------------------------------ Table 3 (tab:ablation_prelim)
 #: ``tab:ablation_prelim`` (averaged over Hand, Bob, Camel): variant ->
 #: (E_SD or None for "invalid", flip %, min det J).
-TABLE4 = {
+ABLATION_PRELIM = {
     "full": (7.09, 0.00, 0.27),
     "k=0": (8.01, 0.00, 0.19),
     "k=8": (7.09, 0.00, 0.24),
@@ -84,9 +84,9 @@ TABLE4 = {
     "random init": (None, 50.60, -33.47),
 }
 
-# ------------------------------------------------------------------ Table 5
+# ------------------------------------------------------------------ Table 4 (tab:ntk_compact_controls)
 #: ``tab:ntk_compact_controls``: (set, state, k, omega0) -> (S(4), S(8), S(16)).
-TABLE5 = {
+NTK_COMPACT_CONTROLS = {
     ("compact", "init", 0, 15): (0.237, 0.409, 0.527),
     ("compact", "init", 16, 15): (0.448, 0.508, 0.716),
     ("compact", "final", 0, 15): (0.264, 0.442, 0.488),
@@ -98,10 +98,10 @@ TABLE5 = {
     ("amara fallback", "init", 16, 15): (0.502, 0.610, 0.906),
 }
 
-# ------------------------------------------------------------------ Table 6
+# ------------------------------------------------------------------ Table 5 (tab:thingi_scale)
 #: ``tab:thingi_scale``: subset -> tried, finite, valid, valid %, face range,
 #: median E_SD, mean time (s).
-TABLE6 = {
+THINGI_SCALE = {
     "Raw usable": {"tried": 26, "finite": 18, "valid": 18, "valid_percent": 69.2, "faces": (165, 131072),
                    "median_esd": 5.27, "mean_time": 36.29},
     "Xatlas first-500": {"tried": 287, "finite": 283, "valid": 280, "valid_percent": 97.6, "faces": (4, 236),
@@ -110,10 +110,10 @@ TABLE6 = {
                           "median_esd": 60.56, "mean_time": 48.72},
 }
 
-# ------------------------------------------------------------------ Table 7
+# ------------------------------------------------------------------ Table 6 (tab:runtime_pareto)
 #: ``tab:runtime_pareto`` (CUDA): (set, iterations) -> valid (n, N), median
 #: E_SD, mean min det J, mean flip %, median time (s).
-TABLE7 = {
+RUNTIME_PARETO = {
     ("compact", 500): {"valid": (3, 3), "median_esd": 5.78, "mean_min_det": 0.222, "mean_flip": 0.00, "median_time": 3.21},
     ("compact", 750): {"valid": (3, 3), "median_esd": 4.65, "mean_min_det": 0.206, "mean_flip": 0.00, "median_time": 4.96},
     ("compact", 1000): {"valid": (3, 3), "median_esd": 4.42, "mean_min_det": 0.228, "mean_flip": 0.00, "median_time": 5.88},
@@ -163,12 +163,12 @@ TEXT = {
 
 #: The claims each table's caption makes, quoted (shown under our tables).
 CAPTIONS = {
-    "table2": "Among fixed-chart solvers, only ours is foldover-free on every chart.",
-    "table3": "SLIM, BFF, and OptCuts entries show flip rate except for valid rows, where E_SD is more diagnostic. "
+    "tab:compact_prelim": "Among fixed-chart solvers, only ours is foldover-free on every chart.",
+    "tab:slim_failure_modes": "SLIM, BFF, and OptCuts entries show flip rate except for valid rows, where E_SD is more diagnostic. "
               "OptCuts is allowed to recut.",
-    "table4": "Bandwidth rows keep k=16 and vary only omega0; their flatness indicates that omega0 is not the dominant "
+    "tab:ablation_prelim": "Bandwidth rows keep k=16 and vary only omega0; their flatness indicates that omega0 is not the dominant "
               "validity factor in this regime.",
-    "table6": "Valid means finite UVs, zero flipped triangles, and positive final minimum determinant.",
-    "table7": "Compact rows average Hand, Bob, and Camel; Thingi rows use three valid stratified xatlas-cut charts at "
+    "tab:thingi_scale": "Valid means finite UVs, zero flipped triangles, and positive final minimum determinant.",
+    "tab:runtime_pareto": "Compact rows average Hand, Bob, and Camel; Thingi rows use three valid stratified xatlas-cut charts at "
               "roughly 1K, 6.5K, and 40K faces. All rows use 200 warm-up iterations.",
 }

@@ -1,4 +1,4 @@
-"""Table 7: the runtime–quality Pareto sweep over iteration budgets.
+"""Table 6 (tab:runtime_pareto): the runtime–quality Pareto sweep over iteration budgets.
 
 The same network (the ``paper`` preset: width 256, five layers, k = 16,
 ω0 = 15, 200 warm-up iterations) is run for a fixed number of iterations with
@@ -26,6 +26,7 @@ from neuraluv_paper.bench.common import DEFAULT_MESHES, MESH_LABELS, QUICK_MESHE
 from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_line, findings_markdown, fmt_num, fmt_pct,
                                              fmt_time, fraction, markdown_table, print_report, progress, save_figure,
                                              start_run, with_paper, write_csv, write_markdown)
+from neuraluv_paper.claims import heading
 
 __all__ = ["bench", "add_arguments", "run", "closest_charts", "BUDGETS", "XATLAS_TARGETS"]
 
@@ -41,7 +42,7 @@ def closest_charts(pool, targets=XATLAS_TARGETS, within=1.5):
 
     A target with no native chart within a factor ``within`` of it takes the closest
     midpoint-subdivided copy of a native chart instead
-    (:func:`~neuraluv_paper.bench.charts.subdivided_charts`, as Table 6's upper strata: xatlas
+    (:func:`~neuraluv_paper.bench.charts.subdivided_charts`, as Table 5's (tab:thingi_scale) upper strata: xatlas
     cuts no chart above about 10K faces from our meshes); its ``chart`` ends in ``/s<level>``.
 
     Examples
@@ -77,7 +78,7 @@ def _xatlas_set(cache_dir, targets=XATLAS_TARGETS):
 
 def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None, quick=False, output="results/pareto",
           resume=False, seed=0, device="auto", show_progress=True, args=None, **overrides):
-    """Run Table 7 and write ``table7_pareto.{csv,md}`` and ``pareto.png``.
+    """Run Table 6 (tab:runtime_pareto) and write ``runtime_pareto.{csv,md}`` and ``pareto.png``.
 
     Parameters
     ----------
@@ -102,9 +103,8 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
     nkw.pop("iterations", None)
     out, machine, log = start_run(output, resume=resume, device=device)
     groups = []
-    missing = []
     if "compact" in sets:
-        loaded, missing = load_meshes(list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES)), quick)
+        loaded = load_meshes(list(meshes or (QUICK_MESHES if quick else DEFAULT_MESHES)), quick)
         groups.append(("compact", loaded))
     if "xatlas" in sets and not quick:
         groups.append(("xatlas", _xatlas_set(out / "cache")))
@@ -139,7 +139,7 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
                             "median_time": float(np.median([r["time"] for r in rs]))})
     table = []
     for s in summary:
-        p = PV.TABLE7.get(("compact" if s["set"] == "compact" else "thingi", s["iterations"]))
+        p = PV.RUNTIME_PARETO.get(("compact" if s["set"] == "compact" else "thingi", s["iterations"]))
         table.append([f"{'Compact' if s['set'] == 'compact' else 'xatlas probe'} / {s['iterations']:,}",
                       with_paper(fraction(s["valid"], s["n"]), None if p is None else fraction(*p["valid"])),
                       with_paper(fmt_num(s["median_esd"]), None if p is None else fmt_num(p["median_esd"])),
@@ -156,18 +156,16 @@ def bench(meshes=None, budgets=None, *, sets=("compact", "xatlas"), preset=None,
     fm = findings_markdown(findings)
     if fm:
         body += ["", fm]
-    body += ["", f"Paper caption: “{PV.CAPTIONS['table7']}”"]
+    body += ["", f"Paper caption: “{PV.CAPTIONS['tab:runtime_pareto']}”"]
     notes = [PAPER_NOTE, "The xatlas probe stands in for the paper's Thingi charts (≈1K, 6.5K, 40K faces): the "
              "disk-like registry charts closest in size (see the set list above); where no native xatlas chart is "
              "within a factor 1.5 of the target, the closest midpoint-subdivided copy of one (named `.../s<level>`: "
-             "the same surface and boundary, each triangle split into 4 per level), as in Table 6."]
-    if missing:
-        notes.append("Not run (mesh not cached): " + ", ".join(n for n, _ in missing))
+             "the same surface and boundary, each triangle split into 4 per level), as in Table 5 (tab:thingi_scale)."]
     if log.skipped:
         notes.append(f"{log.skipped} row(s) taken from the resume log.")
-    files = [write_csv(out / "table7_pareto_runs.csv", rows), write_csv(out / "table7_pareto.csv", summary),
+    files = [write_csv(out / "runtime_pareto_runs.csv", rows), write_csv(out / "runtime_pareto.csv", summary),
              _figure(out, summary)]
-    md = write_markdown(out / "table7_pareto.md", "Table 7 — runtime–quality Pareto sweep", "\n".join(body),
+    md = write_markdown(out / "runtime_pareto.md", heading("tab:runtime_pareto", "runtime–quality Pareto sweep"), "\n".join(body),
                         command=command_line("pareto", args), machine=machine, notes=notes, findings=findings)
     files.append(md)
     return BenchOutput("pareto", rows, md.read_text(), files, findings, log.skipped, {"summary": summary})
@@ -205,7 +203,7 @@ def _figure(out, summary):
                 ax.annotate(f"{s['iterations']}", (s["median_time"], s["median_esd"]), fontsize=7,
                             textcoords="offset points", xytext=(4, 4))
         key = "compact" if g == "compact" else "thingi"
-        ps = sorted((it, v) for (k, it), v in PV.TABLE7.items() if k == key)
+        ps = sorted((it, v) for (k, it), v in PV.RUNTIME_PARETO.items() if k == key)
         ax.plot([v["median_time"] for _, v in ps], [v["median_esd"] for _, v in ps], "o--", mfc="none", color=col,
                 alpha=0.6, label=f"paper (CUDA): {key}")
     ax.set_xscale("log")

@@ -127,9 +127,9 @@ def _pareto_markdown(rows, meshes):
     body = [[r["design"], r["iterations"], f"{r['esd']:.3f}", f"{r['time']:.2f}"]
             + [f"{r['per_mesh'][m][0]:.3f} ({r['per_mesh'][m][1]:.1f})" for m in meshes] for r in med]
     paper = [[f"paper (CUDA), compact / {k}", k, f"{v['median_esd']:.2f}", f"{v['median_time']:.2f}"] + ["—"] * len(meshes)
-             for (s, k), v in sorted(PV.TABLE7.items()) if s == "compact"]
+             for (s, k), v in sorted(PV.RUNTIME_PARETO.items()) if s == "compact"]
     front = _front(med)
-    text = [markdown_table(head, body), "", "The paper's compact-chart Pareto points (Table 7, CUDA GPU; the median over "
+    text = [markdown_table(head, body), "", "The paper's compact-chart Pareto points (Table 6, tab:runtime_pareto; CUDA GPU; the median over "
             "Hand, Bob and Camel):", "", markdown_table(head, paper), "",
             "Pareto front on this machine (no design is both faster and lower in median E_SD): "
             + ", ".join(f"{r['design']} @ {r['iterations']} ({r['esd']:.3f} in {r['time']:.1f}s)" for r in front) + "."]
@@ -154,8 +154,8 @@ def _pareto_figure(rows, meshes, path):
         pts = sorted((r for r in med if r["design"] == d), key=lambda r: r["iterations"])
         style = dict(marker="s", ms=7, ls="none") if d.startswith("SLIM") else dict(marker="o", ms=3)
         ax.plot([p["time"] for p in pts], [p["esd"] for p in pts], label=d, **style)
-    pp = [v for (s, k), v in sorted(PV.TABLE7.items()) if s == "compact"]
-    ax.plot([v["median_time"] for v in pp], [v["median_esd"] for v in pp], "k*--", ms=9, label="paper Table 7 (CUDA)")
+    pp = [v for (s, k), v in sorted(PV.RUNTIME_PARETO.items()) if s == "compact"]
+    ax.plot([v["median_time"] for v in pp], [v["median_esd"] for v in pp], "k*--", ms=9, label="paper Table 6 (tab:runtime_pareto, CUDA)")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("median wall time (s), features and start included")
