@@ -187,3 +187,42 @@ def test_the_gltf_validator_runs_and_catches_a_broken_file(tmp_path):
     bad = tmp_path / "bad.gltf"
     bad.write_text(json.dumps({"asset": {"version": "2.0"}, "meshes": [{"primitives": [{"attributes": {"POSITION": 7}}]}]}))
     assert _gltf_validate(bad)["errors"] >= 1
+
+
+_BLENDER_IMPORT = """
+import json, sys
+import bpy
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.import_scene.gltf(filepath=sys.argv[-1])
+meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+print("RESULT" + json.dumps({"objects": len(meshes), "faces": sum(len(o.data.polygons) for o in meshes),
+                             "uv_layers": sorted({len(o.data.uv_layers) for o in meshes}),
+                             "materials": sorted({s.material.name for o in meshes for s in o.material_slots if s.material})}))
+"""
+
+
+def _blender_import(path):
+    import subprocess
+
+    from neuraluv_paper.baselines.external import blender_python
+
+    py = blender_python()
+    out = subprocess.run([py, "-c", _BLENDER_IMPORT, str(path)], capture_output=True, text=True, timeout=300)
+    line = [x for x in out.stdout.splitlines() if x.startswith("RESULT")]
+    assert out.returncode == 0 and line, out.stderr[-2000:]
+    return json.loads(line[0][len("RESULT"):])
+
+
+@pytest.mark.slow
+def test_blender_imports_the_atlas_glb_like_the_input(tmp_path, capsys):
+    """Blender 4.5 (the optional ``bpy`` environment: ``make blender-env``) reads the atlas's GLB as it reads the
+    input — the same objects, faces and materials — with one more UV layer."""
+    from neuraluv_paper.baselines.external import blender_python
+
+    if blender_python() is None:
+        pytest.skip("Blender's bpy not installed (`make blender-env`, or set NEURALUV_BPY_PYTHON)")
+    src, out = _scene_glb(tmp_path), tmp_path / "out.glb"
+    assert main(["atlas", str(src), "-o", str(out), *FAST]) == 0, capsys.readouterr()
+    a, b = _blender_import(src), _blender_import(out)
+    assert (a["objects"], a["faces"], a["materials"]) == (b["objects"], b["faces"], b["materials"])
+    assert b["uv_layers"] == [n + 1 for n in a["uv_layers"]]
