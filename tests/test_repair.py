@@ -306,3 +306,20 @@ def test_an_overlap_below_the_texel_tolerance_is_noted_and_left_alone(tmp_path, 
                  "--device", "cpu", "--report", str(tmp_path / "r.json")]) == 0
     r = json.loads((tmp_path / "r.json").read_text())
     assert r["readback"]["valid"] and r["readback"]["overlapping_pairs"] == 0
+
+
+def test_repair_stops_at_its_time_budget_and_says_what_it_left():
+    """Issue 31: every long loop of repair checks the deadline. With the budget already spent, nothing is searched
+    for: the fold is left as it was and the summary says so (the texture purpose's shells likewise)."""
+    from neuraluv.datasets import disk
+
+    V, F = disk(5)
+    UV = tutte(V, F) * 0.4 + 0.5
+    UV[0] += [0.3, 0.0]  # fold the centre over its ring
+    for purpose in ("bake", "texture"):
+        r = repair_layout(V, F, UV, F, "test", device="cpu", purpose=purpose, time_budget=1e-9)
+        assert r.changed_faces.sum() == 0
+        assert any(a["step"] == "left undone" for i in r.islands for a in i["actions"])
+        assert "the time budget ran out" in r.summary()
+    r = repair_layout(V, F, UV, F, "test", device="cpu", purpose="bake")
+    assert r.after.ok and r.changed_faces.sum() > 0  # with time, the same fold is repaired

@@ -207,6 +207,9 @@ def cmd_repair(args):
     from neuraluv.repair.repair import repair_layout
     from neuraluv.solver.device import resolve_device
 
+    import time
+
+    t_start = time.perf_counter()
     inp, out, _ = check_paths(args.input, args.output, args.report, input_exts=(".obj", ".glb", ".gltf"),
                               output_exts=(".obj", ".glb"), figure=args.figure)
     if args.resolution < 16 or 2 * args.padding >= args.resolution / 2:
@@ -225,7 +228,9 @@ def cmd_repair(args):
               "(convert it to .glb first to keep nodes, normals, materials and other UV sets)")
     add = patchable and purpose != "texture" and not args.replace_uvs  # a lightmap goes to a UV set of its own
     res = repair_layout(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device, threads=args.threads,
-                        resolution=args.resolution, padding=args.padding, time_budget=args.time_budget or None,
+                        resolution=args.resolution, padding=args.padding,
+                        time_budget=max(args.time_budget - (time.perf_counter() - t_start), 1e-3)  # the file read
+                        if args.time_budget else None,
                         neural=not args.no_neural, purpose=purpose, repack=add, min_defect=args.min_defect,
                         **_overrides(args))
     # the output, its re-baked textures, the report and the figure are written as one: all or none

@@ -35,7 +35,7 @@ from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, texel_densi
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
-from neuraluv.repair.untangle import RegionEnergy, polish, untangle
+from neuraluv.repair.untangle import RegionEnergy, budget_spent, polish, untangle
 from neuraluv.solver.config import get_config
 
 __all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd",
@@ -293,12 +293,12 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         if len(rest) and not (face_dets(Vn, F[rest], UV, FUV[rest]) > 0).all():
             return None, {"region": region, "free": free, "untangle": {"ok": False}, "overlaps": -1, "scale": sc,
                           "why": "cluster faces outside the region are still folded"}
-        out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc)
+        out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc, deadline=deadline)
         ov = region_overlaps(out, FUV, region, island, allowed) if uinfo["ok"] else -1
         det = {"region": region, "free": free, "untangle": uinfo, "overlaps": ov, "scale": sc}
         if not (uinfo["ok"] and ov == 0):
             return None, det
-        out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc)
+        out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc, deadline=deadline)
         if region_overlaps(out2, FUV, region, island, allowed):
             out2 = out  # the polish moved a triangle over another: keep the untangled map
         det["polish"] = pinfo
@@ -317,6 +317,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     tried = []
     found = None
     for r in schedule:
+        if budget_spent(deadline):  # the time budget: no larger region is tried (the caller reports it)
+            return None, {"step": "budget", "reason": "the time budget was spent", "tried": tried,
+                          "time": time.perf_counter() - t0}
         if r < 0:
             rows = inner.copy()
         else:
@@ -347,7 +350,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         # region and one ring beyond, the same faces for both) by more than ``grow_gain``.
         r, rows, out, det, whole = found
         extra = 0
-        while not whole and extra < max_extra_rings:
+        while not whole and extra < max_extra_rings and not budget_spent(deadline):
             bigger = graph.grow(rows)
             region_b = graph.faces_touching(bigger)
             if len(region_b) > max_fraction * len(island) or (bigger == rows).all():
@@ -395,18 +398,18 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     return None, {"step": "escalate", "tried": tried, "time": time.perf_counter() - t0}
 
 
-def untangle_faces(Vn, F, UV, FUV, faces, rows, density, allowed=None):
+def untangle_faces(Vn, F, UV, FUV, faces, rows, density, allowed=None, deadline=None):
     """Untangle ``faces`` with ``rows`` free (then polish); ``(UV, info)`` or ``(None, info)`` when not valid."""
     t0 = time.perf_counter()
     if not len(rows):
         return None, {"ok": False}
     try:
-        out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density)
+        out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density, deadline=deadline)
     except ValueError:
         return None, {"ok": False}
     if not (info["ok"] and region_overlaps(out, FUV, faces, faces, allowed) == 0):
         return None, info
-    out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density)
+    out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density, deadline=deadline)
     if region_overlaps(out2, FUV, faces, faces, allowed):
         out2 = out
     return out2, {"step": "untangle whole shell", "free_rows": int(len(rows)), "time": time.perf_counter() - t0}

@@ -41,10 +41,19 @@ from neuraluv.layout.purpose import check_purpose
 from neuraluv.meshfix import face_areas
 from neuraluv.plot import plot_repair
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
-from neuraluv.repair.local import (IslandGraph, face_dets_of, island_esds, repair_cluster, resolve_as_chart,
-                                   self_overlap_faces, untangle_faces, with_stretched_neighbours)
+from neuraluv.repair.local import (
+    IslandGraph,
+    face_dets_of,
+    island_esds,
+    repair_cluster,
+    resolve_as_chart,
+    self_overlap_faces,
+    untangle_faces,
+    with_stretched_neighbours,
+)
 from neuraluv.repair.separate import SHRINK_SCALES, repack_all, separate
 from neuraluv.repair.shells import repair_shells
+from neuraluv.repair.untangle import budget_spent
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import torch_threads
 from neuraluv.topology import submesh
@@ -99,13 +108,18 @@ class RepairResult:
         if self.unchanged and self.before.ok:
             return (f"nothing to repair under the {self.before.purpose} purpose: the layout is valid and was left "
                     "byte-identical")
+        undone = sum(1 for i in self.islands for a in i["actions"] if a.get("step") == "left undone")
         if self.unchanged:
             return (f"could not repair under the {self.before.purpose} purpose: {len(self.before.problems)} problem(s) "
-                    "left as they were (see the report's actions); the layout was left byte-identical")
-        ch = [i for i in self.islands if i["actions"]]
+                    "left as they were ("
+                    + ("the time budget ran out: a larger --time-budget, 0 for none" if undone else
+                       "see the report's actions") + "); the layout was left byte-identical")
+        ch = [i for i in self.islands if any(a.get("step") != "left undone" for a in i["actions"])]
         bit = 1.0 - self.changed_faces.mean() if len(self.changed_faces) else 1.0
         head = (f"{len(ch)} of {len(self.islands)} islands changed"
                 + (f", {len(self.new_charts)} new charts" if self.new_charts else "")
+                + (f", {undone} island(s) / shell(s) left as they were: the time budget ran out (--time-budget)"
+                   if undone else "")
                 + f"; faces bit-identical {100 * bit:.1f}%; ")
         if b.get("purpose") == "texture":
             lost = [v["faces"] - v["covered_faces"] + v["non_finite_faces"] for v in (a, b)]
@@ -163,7 +177,10 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         Texels (of area) at ``resolution``: overlaps smaller than this (an island with itself, or a pair of
         islands, in all) are noted and left alone (:func:`~neuraluv.repair.diagnose.diagnose_layout`); 0: exact.
     time_budget : float, optional
-        Seconds after which running neural solves stop with their best valid map.
+        Seconds for the whole repair: every long loop (untangling, polishing, neural solves, island moves)
+        checks it; past it, a running solve keeps its best valid map, islands not yet repaired are left as
+        they were (``"left undone"`` in their actions, counted in the summary) and islands not yet placed
+        are repacked. Twice the opening diagnosis's time is kept back for the closing one.
     neural : bool
         Allow the neural solver (local step 2 and whole-island re-solves).
     purpose : {"bake", "lightmap", "texture"}
@@ -213,6 +230,8 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         raise NeuralUVError("repack=True builds a layout of its own: use it with purpose 'bake' or 'lightmap'")
     facts = layout_facts(V, F, UV, FUV, min_overlap=defect_area(min_defect, resolution))
     before = diagnose_layout(V, F, UV, FUV, resolution=resolution, padding=padding, facts=facts, purpose=purpose)
+    if deadline is not None:  # the closing diagnosis (and a caller's read-back) cost what the opening one did
+        deadline -= 2.0 * (time.perf_counter() - t0)
     p_in = len(UV)
     if before.ok and not (repack and any(w["kind"] == "padding" for w in before.warnings)):
         after = before
@@ -287,6 +306,10 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                         UV_in=UV, FUV_in=FUV)
 
 
+#: An island's action when the time budget ran out before its repair (the summary counts them).
+LEFT_UNDONE = {"step": "left undone", "reason": "the time budget was spent before this island's repair"}
+
+
 def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, seed, device, deadline, neural):
     """Steps 1-3 under a bake's rules: mirrored islands reflected back, folds and self-overlaps repaired locally
     (else the whole island untangled, else re-solved). Returns ``UV, FUV``; ``actions`` and ``movers_pref`` are
@@ -315,6 +338,9 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
         targets = np.unique(np.concatenate([bad, over]))
         if not len(targets):
             continue
+        if budget_spent(deadline):  # what is left is reported, not searched for (--time-budget)
+            actions[i].append(LEFT_UNDONE)
+            continue
         targets = with_stretched_neighbours(Vn, F, UVw, FUVw, fi, targets)
         graph = IslandGraph(FUVw, fi, len(UVw))
         escalate = False
@@ -325,13 +351,17 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
             out, info = repair_cluster(Vn, F, UVw, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)
             if out is None:
-                escalate = True
+                escalate = info.get("step") != "budget"
+                if not escalate:
+                    actions[i].append(LEFT_UNDONE)
                 break
             UVw = out
             actions[i].append({k: info[k] for k in ("step", "rings", "extra_rings", "region_faces", "free_rows") if k in info}
                               | {"cluster_faces": int(len(cl)), "time": info["time"]})
             movers_pref.add(i)
-        if escalate:
+        if escalate and budget_spent(deadline):
+            actions[i].append(LEFT_UNDONE)
+        elif escalate:
             UVw, FUVw, act = _whole_island(Vn, F, UVw, FUVw, fi, dens, cfg, neural=neural, seed=seed, device=device,
                                            deadline=deadline)
             actions[i].append(act)

@@ -12,8 +12,16 @@ import numpy as np
 from neuraluv.layout.facts import face_clusters
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent
-from neuraluv.repair.local import (IslandGraph, face_dets_of, region_overlaps, repair_cluster, resolve_as_chart,
-                                   untangle_faces, with_stretched_neighbours)
+from neuraluv.repair.local import (
+    IslandGraph,
+    face_dets_of,
+    region_overlaps,
+    repair_cluster,
+    resolve_as_chart,
+    untangle_faces,
+    with_stretched_neighbours,
+)
+from neuraluv.repair.untangle import budget_spent
 
 __all__ = ["repair_shells", "intended_overlaps"]
 
@@ -37,6 +45,10 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
         i = int(it.shell_island[k])
+        if budget_spent(deadline):  # what is left is reported, not searched for (--time-budget)
+            actions[i].append({"step": "left undone", "reason": "the time budget was spent before this shell's "
+                               "repair", "shell": int(k)})
+            continue
         outside = np.setdiff1d(facts.island_faces(i), shell, assume_unique=True)
         locked = np.zeros(len(UVw), bool)
         locked[np.unique(FUVw[outside])] = True
@@ -66,10 +78,14 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
                 if out is not None:
                     info = {**info, "split_rows": int(len(split))}
+            if out is None and budget_spent(deadline):
+                actions[i].append({"step": "left undone", "cluster_faces": int(len(cl)), "shell": int(k),
+                                   "reason": "the time budget was spent"})
+                continue
             if out is None:
                 rows = np.setdiff1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
-                out, info = untangle_faces(Vn, F, work, FUVw, shell, rows, dens, allowed)
-            if out is None and neural and not locked[np.unique(FUVw[shell])].any():
+                out, info = untangle_faces(Vn, F, work, FUVw, shell, rows, dens, allowed, deadline=deadline)
+            if out is None and neural and not budget_spent(deadline) and not locked[np.unique(FUVw[shell])].any():
                 # the last resort of a shell of its own: re-solved as a chart, fitted back where it was (every
                 # UV of the shell moves a little; the texture is re-baked)
                 out_uv, out_fuv, info = resolve_as_chart(Vn, F, work, FUVw, shell, dens, cfg, seed=seed,

@@ -16,6 +16,7 @@ each face's Jacobian against its own 3D triangle, and are plain NumPy/SciPy
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,7 +24,20 @@ from scipy.optimize import minimize
 
 from neuraluv.jacobian import local_frames
 
-__all__ = ["RegionEnergy", "untangle", "polish", "stable_energy_terms"]
+__all__ = ["RegionEnergy", "untangle", "polish", "stable_energy_terms", "budget_spent"]
+
+
+def _stop_at(deadline):
+    """A scipy ``minimize`` callback that ends the minimisation (its best point so far) once ``deadline`` passed."""
+    def callback(intermediate_result):
+        if budget_spent(deadline):
+            raise StopIteration
+    return callback
+
+
+def budget_spent(deadline):
+    """Whether the time budget's ``deadline`` (a ``time.perf_counter()`` value, or None: none) has passed."""
+    return deadline is not None and time.perf_counter() > deadline
 
 
 def stable_energy_terms(fro2, det, eps_J=1e-4):
@@ -152,7 +166,7 @@ def _chi(D, eps):
         return np.where(D >= 0, 0.5 * (D + r), eps * eps / (2.0 * (r - D)))
 
 
-def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inner=300):
+def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inner=300, deadline=None):
     """Untangle a folded region by moving only the ``free`` rows (Garanzha et al. 2021).
 
     Parameters
@@ -172,6 +186,9 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
         Weight of the area term (the paper's ½).
     max_outer, inner : int
         ε-steps, and L-BFGS iterations per step.
+    deadline : float, optional
+        ``time.perf_counter()`` value after which no further ε-step starts (``ok`` tells whether the map so far
+        is fold-free).
 
     Returns
     -------
@@ -228,8 +245,11 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
         return U0.copy(), {"outer": 0, "min_det": dmin, "ok": True}
     eps, E_prev, outer = 1.0, None, 0
     for outer in range(1, max_outer + 1):
+        if outer > 1 and budget_spent(deadline):  # the time budget: the map so far (checked for folds below)
+            break
         res = minimize(lambda z, e: energy(z, e)[:2], x, args=(eps,), jac=True, method="L-BFGS-B",
-                       options={"maxiter": int(inner), "maxcor": 10, "ftol": 1e-13, "gtol": 1e-11})
+                       options={"maxiter": int(inner), "maxcor": 10, "ftol": 1e-13, "gtol": 1e-11},
+                       callback=None if deadline is None else _stop_at(deadline))
         x = res.x
         E, _, dmin = energy(x, eps)
         if E_prev is not None and dmin > 0 and abs(E_prev - E) <= 1e-5 * abs(E):
@@ -244,7 +264,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
 
 
 def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J=1e-4, eps=1e-3, alpha=1.0,
-           tol=1e-9):
+           tol=1e-9, deadline=None):
     """Lower the stable symmetric Dirichlet objective by moving only the ``free`` rows, never folding a face.
 
     Parameters
@@ -260,6 +280,8 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
         Texel density at which an isometry has ``J = I``.
     max_iter, history : int
         L-BFGS iterations and memory.
+    deadline : float, optional
+        ``time.perf_counter()`` value after which the polish stops (every accepted step is valid).
     eps_J, eps, alpha : float
         The paper's C² switch point, barrier margin and barrier weight.
     tol : float
@@ -316,6 +338,8 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
     it = 0
     converged = False
     for it in range(1, max_iter + 1):
+        if it % 5 == 0 and budget_spent(deadline):  # every step keeps the map valid: stop where it is
+            break
         # two-loop recursion
         q = -g.copy()
         al = []
