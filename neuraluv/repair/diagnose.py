@@ -87,8 +87,11 @@ class UVDiagnosis:
         for label, items in (("problem", self.problems), ("feature", self.features), ("warning", self.warnings)):
             for kind, group in _by_kind(items).items():
                 shown = group if limit is None else group[:limit]
+                one = len({p["action"] for p in group}) == 1  # one action for the kind: said once, after its lines
                 for p in shown:
-                    lines.append(f"  {label}: {_describe(p)}\n           → {p['action']}")
+                    lines.append(f"  {label}: {_describe(p)}" + ("" if one else f"\n           → {p['action']}"))
+                if one:
+                    lines.append(f"           → {group[0]['action']}")
                 if len(group) > len(shown):
                     lines.append(f"  … and {len(group) - len(shown):,} more {label}s of this kind ({kind}; "
                                  f"--all or --json lists every one)")
