@@ -37,8 +37,9 @@ from neuraluv_paper.bench.provenance import (GREY_NOTE, PAPER_NOTE, BenchOutput,
 
 __all__ = ["bench", "add_arguments", "run", "VARIANTS", "LABELS", "neural_attempt_metrics"]
 
-#: Adam's learning rate for free per-vertex UVs (a step per UV coordinate, not per weight): the best of
-#: 1e-4, 5e-4, 1e-3, 2e-3 on Camel and Hand at 2,000 iterations (notebook 03d).
+#: Adam's learning rate for free per-vertex UVs (a step per UV coordinate, not per weight). At 2,000 iterations
+#: (`fast` preset, no early stop) E_SD Camel / Hand: 1e-4 7.42 / 18.66, 5e-4 4.36 / 13.38, 1e-3 4.18 / 13.64,
+#: 2e-3 4.15 / 13.59: 1e-3 is within 2% of the best on both charts (notebook 03d).
 VERTEX_ADAM_LR = 1e-3
 #: Variant name -> SolverConfig overrides on top of the full model.
 VARIANTS = {
