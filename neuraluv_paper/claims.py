@@ -72,6 +72,8 @@ CHAPTER_CLAIMS = {
             ("ablation/table4_ablation.md", "Removing LBO features"),
             ("ablation/table4_ablation.md", "Spectral init"),
             ("ablation/table4_ablation.md", "Random init")],
+    "03d": [("ablation/table4_ablation.md", "The network adds over free per-vertex UVs"),
+            ("compact/table2_compact.md", "only ours is foldover-free")],
     "04": [("compact/table2_compact.md", "only ours is foldover-free"),
            ("compact/table2_compact.md", "slower than LSCM"),
            ("charts/table6_charts.md", "stratified set is mostly valid"), ("pareto/table7_pareto.md", "")],
