@@ -30,9 +30,10 @@ from neuraluv.metrics import distortion_metrics, metrics_from_jacobians
 from neuraluv.relax import slim_relax_until
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
-from neuraluv.solver.engine import chart_module, make_batch, optimise
+from neuraluv.solver.engine import make_batch, optimise
 from neuraluv.solver.result import ChartResult, Stop
 from neuraluv.solver.siren import Siren
+from neuraluv.solver.vertex import chart_module
 from neuraluv.spectral import chart_features, lbo_eigenfunctions
 from neuraluv.topology import is_disk_like
 from neuraluv.tutte import tutte

@@ -48,14 +48,15 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from neuraluv.solver import vertex
 from neuraluv.solver.energy import chart_objective
 from neuraluv.solver.lbfgs import LBFGSMemory, memory_length, row_dot
 from neuraluv.solver.result import Stop
-from neuraluv.solver import vertex
-from neuraluv.solver.siren import flat_grad, forward, init_params, leaves, to_module
+from neuraluv.solver.siren import flat_grad, forward, init_params, leaves
 from neuraluv.solver.trace import TraceRecorder
+from neuraluv.solver.vertex import chart_module, check_param
 
-__all__ = ["ChartBatch", "make_batch", "optimise", "EngineResult", "chart_module"]
+__all__ = ["ChartBatch", "make_batch", "optimise", "EngineResult"]
 
 
 # --------------------------------------------------------------------------- the batch
@@ -277,7 +278,7 @@ class _Run:
         self.callback, self.progress = callback, progress
         self.net = dict(width=cfg.width, n_layers=cfg.n_layers, omega0=float(cfg.omega0))
         self.lbfgs = cfg.optimizer == "lbfgs"
-        self.vertex = _param(cfg) == "vertex"
+        self.vertex = check_param(cfg) == "vertex"
         if self.vertex:
             if batch.base is None:
                 raise ValueError("param='vertex' displaces the valid start: it needs residual=True and init='tutte'")
@@ -563,22 +564,6 @@ class _Run:
         return EngineResult(best_uv=self.out_u, theta=self.out_theta, traces=self.rec.traces(),
                             stop=[Stop(int(s)) for s in self.out_stop], start_esd=self.start_esd,
                             rounds=self.rounds, backward=self.n_back, timing=self.timing)
-
-
-def _param(cfg):
-    """``cfg.param``, checked (``"siren"`` or ``"vertex"``)."""
-    p = getattr(cfg, "param", "siren")
-    if p not in vertex.PARAMS:
-        raise ValueError(f"param must be one of {vertex.PARAMS}, got {p!r}")
-    return p
-
-
-def chart_module(theta_row, d, cfg, base=None):
-    """One chart's map as a module: a :class:`~neuraluv.solver.siren.Siren` (``param="siren"``) or a
-    :class:`~neuraluv.solver.vertex.VertexMap` on ``base (n,2)`` (``param="vertex"``), holding ``theta_row``."""
-    if _param(cfg) == "vertex":
-        return vertex.to_module(theta_row, base)
-    return to_module(theta_row, d, cfg, base)
 
 
 def _warmup(theta, batch, cfg, net):

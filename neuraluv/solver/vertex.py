@@ -24,7 +24,9 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-__all__ = ["PARAMS", "VertexMap", "init_params", "leaves", "forward", "to_module"]
+from neuraluv.solver.siren import to_module as _siren_module
+
+__all__ = ["PARAMS", "VertexMap", "init_params", "leaves", "forward", "to_module", "check_param", "chart_module"]
 
 #: The parameterisations of :attr:`SolverConfig.param <neuraluv.solver.config.SolverConfig>`.
 PARAMS = ("siren", "vertex")
@@ -107,3 +109,19 @@ def to_module(theta_row, base):
     """A :class:`VertexMap` holding one chart's displacement ``theta_row (2n',)`` on ``base (n,2)`` (n ≤ n')."""
     n = len(base)
     return VertexMap(base, theta_row.detach().reshape(-1, 2)[:n]).to(theta_row.device)
+
+
+def check_param(cfg):
+    """``cfg.param`` (``"siren"`` or ``"vertex"``), or a ValueError that lists the choices."""
+    p = getattr(cfg, "param", "siren")
+    if p not in PARAMS:
+        raise ValueError(f"param must be one of {PARAMS}, got {p!r}")
+    return p
+
+
+def chart_module(theta_row, d, cfg, base=None):
+    """One chart's map as a module holding ``theta_row``: a :class:`~neuraluv.solver.siren.Siren`
+    (``param="siren"``, ``d`` input features) or a :class:`VertexMap` on ``base (n,2)`` (``param="vertex"``)."""
+    if check_param(cfg) == "vertex":
+        return to_module(theta_row, base)
+    return _siren_module(theta_row, d, cfg, base)
