@@ -72,6 +72,8 @@ CHAPTER_CLAIMS = {
             ("ablation/ablation_prelim.md", "Removing LBO features"),
             ("ablation/ablation_prelim.md", "Spectral init"),
             ("ablation/ablation_prelim.md", "Random init")],
+    "03d": [("ablation/ablation_prelim.md", "The network adds over free per-vertex UVs"),
+            ("compact/compact_prelim.md", "only ours is foldover-free")],
     "04": [("compact/compact_prelim.md", "only ours is foldover-free"),
            ("compact/compact_prelim.md", "slower than LSCM"),
            ("charts/thingi_scale.md", "stratified set is mostly valid"), ("pareto/runtime_pareto.md", "")],

@@ -4,6 +4,7 @@
 ``config``         :class:`SolverConfig`, :data:`PRESETS` (torch-free)
 ``device``         device selection, CPU thread control
 ``siren``          the chart network (SIREN with a residual head), also on stacked flat parameters
+``vertex``         the per-vertex control (``param="vertex"``): free UVs, the same objective and checked steps
 ``energy``         Jacobians in torch, the C² extension, E_SD, barrier, objective
 ``result``         :class:`ChartResult`, :class:`Stop` (why a solve ended; torch-free)
 ``engine``         the batched, validity-checked optimisation loop (Adam, L-BFGS)

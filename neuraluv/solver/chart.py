@@ -32,7 +32,8 @@ from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
 from neuraluv.solver.engine import make_batch, optimise
 from neuraluv.solver.result import ChartResult, Stop
-from neuraluv.solver.siren import Siren, to_module
+from neuraluv.solver.siren import Siren
+from neuraluv.solver.vertex import chart_module
 from neuraluv.spectral import chart_features, lbo_eigenfunctions
 from neuraluv.topology import is_disk_like
 from neuraluv.tutte import tutte
@@ -173,6 +174,8 @@ def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, k=None, start_
         raise TopologyError(f"{label} has {int(bad.sum())} degenerate (zero-area) faces: remove them first "
                             "(neuraluv.meshfix.repair_mesh; `neuraluv unwrap` and `atlas` do this)")
     k = cfg.k if k is None else min(int(k), cfg.k)
+    if cfg.param == "vertex":  # free per-vertex UVs read no features: skip the eigen-solve (zero columns)
+        k = 0
     n_eig = max(k, 2) if n_eig is None else max(int(n_eig), k, 2)
     need_eig = k > 0 or cfg.init == "spectral" or n_eig > max(k, 2)
     eig = lbo_eigenfunctions(Vn, F, n_eig) if need_eig else (np.zeros(0), np.zeros((len(V), 0)))
@@ -319,7 +322,7 @@ def _result(cfg, prep, attempts, log, t_start, device):
     return ChartResult(
         uv=uv, metrics=m, status=status, reason=reason, trace=trace, time=time.perf_counter() - t_start,
         seed=used_seed, attempts=len(attempts), stop=stop.label, config=cfg.as_dict(),
-        network=to_module(theta, prep.X.shape[1], cfg, base), start=start,
+        network=chart_module(theta, prep.X.shape[1], cfg, base), start=start,
         attempt_metrics=[a[0] for a in attempts], neural_uv=neural_uv, attempt_log=log,
     )
 

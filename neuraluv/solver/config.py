@@ -58,6 +58,14 @@ class SolverConfig:
     history : L-BFGS memory (curvature pairs kept).
     armijo : L-BFGS sufficient-decrease constant ``c₁`` (a trial must lower the
         loss by ``c₁ t ∇L·d``; replaces ``loss_rise``).
+    param : what the optimiser moves. ``"siren"`` (the paper's): the weights of the
+        chart network, ``u = φ_θ(x)``. ``"vertex"``: free per-vertex UVs,
+        ``u = u_start + θ`` with ``θ (n,2)`` starting at zero — the same start,
+        objective, barrier, C² extension, checked steps, optimiser, retries and
+        fallback, only the parameters differ (the control of "what the network
+        adds", :mod:`neuraluv.solver.vertex`, notebook 03d). The network
+        settings (``k``, ``omega0``, ``width``, ``n_layers``) are then unused; ``lr`` is
+        Adam's step per UV coordinate (or L-BFGS's first step length).
     start_relax, relax_below : not in the paper (``literal`` preset: off). When the
         Tutte start's smallest det J is below ``relax_below`` (default ``ε_J``,
         where the C² extension replaces the true energy), it is un-crushed by
@@ -102,6 +110,7 @@ class SolverConfig:
     optimizer: str = "adam"
     history: int = 30
     armijo: float = 1e-4
+    param: str = "siren"
 
     def as_dict(self):
         return asdict(self)

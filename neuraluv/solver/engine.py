@@ -23,6 +23,11 @@ state next round, so a refused trial costs one forward pass) and stops the
 charts that are done (:class:`~neuraluv.solver.result.Stop`); ``retire`` drops
 them from the batch.
 
+Two parameterisations share that loop (``cfg.param``): ``"siren"``, the
+paper's network, and ``"vertex"``, free per-vertex displacements from the same
+start (:mod:`neuraluv.solver.vertex`, the control of "what the network adds");
+only ``evaluate`` differs.
+
 Two optimisers share that loop:
 
 * ``adam`` — the paper's (Adam with a cosine learning rate), written out on
@@ -43,11 +48,13 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from neuraluv.solver import vertex
 from neuraluv.solver.energy import chart_objective
 from neuraluv.solver.lbfgs import LBFGSMemory, memory_length, row_dot
 from neuraluv.solver.result import Stop
-from neuraluv.solver.siren import flat_grad, forward, init_params, leaves, to_module
+from neuraluv.solver.siren import flat_grad, forward, init_params, leaves
 from neuraluv.solver.trace import TraceRecorder
+from neuraluv.solver.vertex import chart_module, check_param
 
 __all__ = ["ChartBatch", "make_batch", "optimise", "EngineResult"]
 
@@ -271,7 +278,13 @@ class _Run:
         self.callback, self.progress = callback, progress
         self.net = dict(width=cfg.width, n_layers=cfg.n_layers, omega0=float(cfg.omega0))
         self.lbfgs = cfg.optimizer == "lbfgs"
-        theta = init_params(seeds, self.d, cfg, residual=batch.base is not None, device=dev)
+        self.vertex = check_param(cfg) == "vertex"
+        if self.vertex:
+            if batch.base is None:
+                raise ValueError("param='vertex' displaces the valid start: it needs residual=True and init='tutte'")
+            theta = vertex.init_params(batch.B, batch.n, device=dev)
+        else:
+            theta = init_params(seeds, self.d, cfg, residual=batch.base is not None, device=dev)
         self.timing = dict.fromkeys(("forward", "objective", "backward", "optimiser", "bookkeeping"), 0.0)
         self._sync = (lambda: torch.cuda.synchronize(dev)) if (profile and dev.type == "cuda") else (lambda: None)
         self._clock = time.perf_counter()
@@ -330,8 +343,12 @@ class _Run:
     def evaluate(self, theta, it):
         """UVs and the objective of every chart at ``theta (B, P)``, barrier weight ``α(it)`` (lines 6–8)."""
         bt, cfg = self.bt, self.cfg
-        th = leaves(theta, self.d, cfg.width, cfg.n_layers)
-        u = forward(th, bt.X, bt.base, mask=bt.mask, **self.net)
+        if self.vertex:
+            th = vertex.leaves(theta)
+            u = vertex.forward(th, bt.base, mask=bt.mask)
+        else:
+            th = leaves(theta, self.d, cfg.width, cfg.n_layers)
+            u = forward(th, bt.X, bt.base, mask=bt.mask, **self.net)
         self.tick("forward")
         o = chart_objective(u.reshape(-1, 2), bt.F, bt.dC_inv, bt.w, bt.face_chart, bt.B, _alpha(it, cfg),
                             cfg.eps_J, cfg.eps)
@@ -526,7 +543,8 @@ class _Run:
     def _notify(self, event, step, theta):
         """``callback(event, step, model)`` with chart 0's network at ``theta[0]``."""
         if self.callback is not None:
-            self.callback(event, step, to_module(theta[0], self.d, self.cfg, None if self.bt.base is None else self.bt.base[0]))
+            base = None if self.bt.base is None else self.bt.base[0, : int(self.bt.sizes[0])]
+            self.callback(event, step, chart_module(theta[0], self.d, self.cfg, base))
 
     def _store(self, idx):
         """Copy the results of the charts at rows ``idx`` to the per-chart outputs."""
