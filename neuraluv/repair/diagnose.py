@@ -390,14 +390,6 @@ def _diagnose_texture(f, V, F, resolution, padding):
                                  + (f"; {many} repeat across tiles" if many else ""),
                                  "kept (a repeating sampler or UDIM tiles read them)", faces, *args,
                                  islands=sorted(tiles_of)))
-    for ov in f.ignored_overlaps():
-        texels = ov["area"] * float(resolution) ** 2
-        what = (f"island {ov['islands'][0]} overlaps itself" if len(ov["islands"]) == 1 else
-                f"islands {ov['islands'][0]} and {ov['islands'][1]} overlap")
-        warnings.append({"kind": "subtexel_overlap", "message": f"{what} by {texels:.2g} texels at {resolution} px "
-                         f"(UV area {ov['area']:.2g}), below the {f.min_overlap * float(resolution) ** 2:g}-texel "
-                         "tolerance", "action": "left as is: no texture at this resolution shows it", "overlap_islands": ov["islands"],
-                         "area": ov["area"]})
     if f.degenerate3d.any():
         warnings.append({"kind": "zero_area_faces", "message": f"{int(f.degenerate3d.sum()):,} faces have no 3D area "
                          "(distortion is undefined there)", "action": "their UVs are left as they are"})
