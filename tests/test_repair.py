@@ -323,3 +323,37 @@ def test_repair_stops_at_its_time_budget_and_says_what_it_left():
         assert "the time budget ran out" in r.summary()
     r = repair_layout(V, F, UV, F, "test", device="cpu", purpose="bake")
     assert r.after.ok and r.changed_faces.sum() > 0  # with time, the same fold is repaired
+
+
+def test_a_fold_below_the_texel_tolerance_is_noted_and_left_alone(tmp_path, capsys):
+    """Issue 31: a fold no texture shows (one corner triangle turned over by 0.15 texels at 1024²) is a warning
+    under both purposes and the file comes back byte-identical; with --min-defect 0 it is a problem, repaired."""
+    from conftest import write_layout
+    from neuraluv.cli import main
+
+    n = 4
+    u, v = np.meshgrid(np.linspace(0, 1, n + 1), np.linspace(0, 1, n + 1))
+    V = np.c_[u.ravel(), v.ravel(), 0.3 * (u.ravel() - 0.5) ** 2]
+    k = np.arange(n * (n + 1)).reshape(n, n + 1)[:, :n].ravel()
+    F = np.r_[np.c_[k, k + 1, k + n + 2], np.c_[k, k + n + 2, k + n + 1]]
+    UV = V[:, :2] * 0.4 + 0.1
+    c = n  # the corner vertex in one triangle only, pushed just across its opposite edge
+    t = F[np.flatnonzero((F == c).any(1))[0]]
+    a, b = [x for x in t if x != c]
+    d = (UV[b] - UV[a]) / np.linalg.norm(UV[b] - UV[a])
+    foot = UV[a] + d * ((UV[c] - UV[a]) @ d)
+    UV[c] = foot - (UV[c] - foot) / np.linalg.norm(UV[c] - foot) * 2e-6
+    src = tmp_path / "corner.obj"
+    write_layout(src, V, F, UV, F)
+    for purpose in ("texture", "bake"):
+        assert main(["check", "--uv", str(src), "--purpose", purpose, "--json"]) == 0
+        d = json.loads(capsys.readouterr().out)
+        assert d["ok"] and "subtexel_fold" in {w["kind"] for w in d["warnings"]}, (purpose, d["problems"])
+        assert main(["repair", str(src), "-o", str(tmp_path / "same.obj"), "--purpose", purpose, "--device", "cpu"]) == 0
+        assert (tmp_path / "same.obj").read_bytes() == src.read_bytes()
+        capsys.readouterr()
+    assert main(["check", "--uv", str(src), "--min-defect", "0", "--json"]) == 0
+    assert "folded_faces" in {p["kind"] for p in json.loads(capsys.readouterr().out)["problems"]}
+    assert main(["repair", str(src), "-o", str(tmp_path / "fixed.obj"), "--min-defect", "0", "--device", "cpu",
+                 "--report", str(tmp_path / "r.json")]) == 0
+    assert json.loads((tmp_path / "r.json").read_text())["readback"]["valid"]

@@ -187,7 +187,8 @@ class LayoutFacts:
     degenerate3d : (m,) bool array, faces with no 3D area (:data:`DEGENERATE_3D_AREA`).
     min_overlap : float, UV area: an island's overlap with itself, or a pair of islands' overlap, smaller
         than this in all is below what a texture shows and is left out of :meth:`overlaps` (counted in
-        :meth:`ignored_overlaps`). 0 (the default): every overlap counts.
+        :meth:`ignored_overlaps`); so is a fold whose reversed faces cover less (:meth:`small_folds`).
+        0 (the default): every overlap and fold counts.
     """
 
     Vn: np.ndarray
@@ -260,6 +261,25 @@ class LayoutFacts:
             self._cache["overlaps"] = (ii[keep], jj[keep], area[keep])
             self._cache["ignored"] = ignored
         return self._cache["overlaps"]
+
+    def small_folds(self, faces):
+        """The faces of ``faces`` ((m,) bool: folded faces) in folds no texture shows: clusters (joined through
+        shared ``vt`` rows) whose UV area is below :attr:`min_overlap` in all. Faces without UV area are never
+        in one (a UV-degenerate face stays a problem); none when :attr:`min_overlap` is 0.
+
+        Returns
+        -------
+        (m,) bool array
+        """
+        out = np.zeros(len(self.F), bool)
+        area = np.abs(np.nan_to_num(self.signed_uv))
+        idx = np.flatnonzero(np.asarray(faces, bool) & (area > 0))
+        if self.min_overlap <= 0 or not len(idx):
+            return out
+        for cl in face_clusters(self.FUV, idx):
+            if area[cl].sum() < self.min_overlap:
+                out[cl] = True
+        return out
 
     def ignored_overlaps(self):
         """The overlaps :meth:`overlaps` leaves out (below :attr:`min_overlap`): ``islands`` (one: with itself)

@@ -134,6 +134,8 @@ class LayoutIntent:
     shell_sign : (k,) int array, orientation of each shell (1 or -1).
     shell_island : (k,) int array, island of each shell.
     fold : (m,) bool array, faces of folds (problems).
+    small_fold : (m,) bool array, faces of folds smaller than the facts' tolerance
+        (:meth:`~neuraluv.layout.facts.LayoutFacts.small_folds`: noted, left alone).
     degenerate : (m,) bool array, UV-degenerate faces inside a shell (problems).
     palette : (m,) bool array, faces of palette collapses (intentional).
     mirrored_shell : (m,) bool array, faces of shells reversed in UV (intentional under ``texture``).
@@ -149,6 +151,7 @@ class LayoutIntent:
     palette: np.ndarray
     mirrored_shell: np.ndarray
     info: dict = field(default_factory=dict)
+    small_fold: np.ndarray = None
 
     def shell_faces(self, k):
         """Face indices of shell ``k`` (its folds and degenerate faces included)."""
@@ -324,12 +327,14 @@ def layout_intent(facts, *, stacked_share=STACKED_SHARE):
         shell_of_sheet[k] = shell_of_sheet[host[k]]
     shell[idx] = shell_of_sheet[s_lab]
     fold[idx] |= role[s_lab] == 2
+    small_fold = facts.small_folds(fold)  # folds no texture at the resolution shows: noted, left alone
+    fold &= ~small_fold
     degenerate[idx] = role[s_lab] == 3
     palette[idx] = role[s_lab] == 4
     shell_sign = s_cls[shells]
     mirrored_shell[idx] = (role[s_lab] == 1) & (s_cls[s_lab] == -1)
     it = LayoutIntent(sheet, cls, shell, shell_sign.astype(np.int64), s_island[shells], fold, degenerate,
-                      palette, mirrored_shell, info={"sheets": int(n_sheets)})
+                      palette, mirrored_shell, info={"sheets": int(n_sheets)}, small_fold=small_fold)
     facts._cache[key] = it
     return it
 

@@ -91,7 +91,8 @@ def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles
     usable = f.usable
     covered = int((~f.missing).sum())
     non_finite = int(f.non_finite.sum())
-    flips = int(f.bad.sum()) + (m - int(usable.sum()))
+    small = f.small_folds(f.bad)  # folds no texture at the tolerance shows (none at the default 0)
+    flips = int((f.bad & ~small).sum()) + (m - int(usable.sum()))
     good = usable & ~f.degenerate3d
     min_det = float(f.det[good].min()) if good.any() else None
     used = f.UV[np.unique(f.FUV[usable])] if usable.any() else f.UV[:0]
@@ -135,7 +136,8 @@ def validate_facts(f, *, padding=0.0, resolution=None, check_padding=True, tiles
         "padding_violations": pad_viol, "padding_texels": padding, "resolution": resolution,
         "min_gap_texels": gap_tex, "uv_in_unit_square": in_box, "valid": bool(valid),
         "density_spread": density_spread(f.density), "stacked_islands": len({j for _, j in on_top}),
-        "overlaps_below_tolerance": f.ignored_overlaps(), "purpose": "bake",
+        "overlaps_below_tolerance": f.ignored_overlaps(), "folded_faces_below_tolerance": int(small.sum()),
+        "purpose": "bake",
     }
 
 

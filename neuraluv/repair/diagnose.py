@@ -206,6 +206,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
     same = li == lj
     islands = []
     med = f.median_density
+    small = f.small_folds(f.bad)  # folds no texture shows at the tolerance: warnings below, not problems
     for i in range(f.n_islands):
         fi = f.island_faces(i)
         d = f.det[fi]
@@ -213,7 +214,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         pts = UVf[rows]
         lo, hi = pts.min(0), pts.max(0)
         d3 = f.degenerate3d[fi]
-        flipped = fi[(d < 0) & ~d3]
+        flipped = fi[(d < 0) & ~d3 & ~small[fi]]
         degen = fi[~(d < 0) & ~(d > 0) & ~d3]
         self_pairs = int((same & (li == i)).sum())
         outside = bool(lo.min() < 0.0 or hi.max() > 1.0)
@@ -267,6 +268,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         warnings.append({"kind": "padding", "message": f"{val['padding_violations']} island pairs closer than "
                          f"{padding:g} texels at {resolution} px (closest {val['min_gap_texels']})",
                          "action": "left as is for islands repair does not move; moved and new islands keep the padding"})
+    _small_fold_warnings(warnings, f, small, args, resolution)
     for ov in f.ignored_overlaps():
         texels = ov["area"] * float(resolution) ** 2
         what = (f"island {ov['islands'][0]} overlaps itself" if len(ov["islands"]) == 1 else
@@ -284,6 +286,19 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
                          "between islands", "action": "left as is (repair keeps each island's density)"})
     return UVDiagnosis(faces=int(len(F)), islands=islands, problems=problems, warnings=warnings, validation=val,
                        resolution=int(resolution), padding=float(padding), purpose=purpose)
+
+
+def _small_fold_warnings(warnings, f, small, args, resolution):
+    """One warning per fold below the tolerance (:meth:`~neuraluv.layout.facts.LayoutFacts.small_folds`)."""
+    if not small.any():
+        return
+    for cl in face_clusters(f.FUV, np.flatnonzero(small)):
+        area = float(np.abs(f.signed_uv[cl]).sum())
+        w = _problem("subtexel_fold", f"{len(cl):,} folded faces covering {area * float(resolution) ** 2:.2g} "
+                     f"texels at {resolution} px, below the {f.min_overlap * float(resolution) ** 2:g}-texel "
+                     "tolerance", "left as is: no texture at this resolution shows it", cl, *args,
+                     island=int(f.label[cl[0]]))
+        warnings.append(w)
 
 
 def _lost_faces(f, args):
@@ -390,6 +405,8 @@ def _diagnose_texture(f, V, F, resolution, padding):
                                  + (f"; {many} repeat across tiles" if many else ""),
                                  "kept (a repeating sampler or UDIM tiles read them)", faces, *args,
                                  islands=sorted(tiles_of)))
+    if it.small_fold is not None:
+        _small_fold_warnings(warnings, f, it.small_fold, args, resolution)
     if f.degenerate3d.any():
         warnings.append({"kind": "zero_area_faces", "message": f"{int(f.degenerate3d.sum()):,} faces have no 3D area "
                          "(distortion is undefined there)", "action": "their UVs are left as they are"})

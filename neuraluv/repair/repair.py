@@ -319,6 +319,7 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
     same = facts.label[ii] == facts.label[jj]
     over_faces = np.concatenate([ii[same], jj[same]])
     over_label = facts.label[over_faces]
+    small = facts.small_folds(facts.bad)
     for i in range(facts.n_islands):
         fi = facts.island_faces(i)
         dens = facts.density[i] if np.isfinite(facts.density[i]) else med
@@ -333,8 +334,8 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
         else:
             det = facts.det[fi]
             over = np.unique(over_faces[over_label == i])
-        # 2./3. folds and self-overlaps, locally
-        bad = fi[~(det > 0) & ~facts.degenerate3d[fi]]
+        # 2./3. folds and self-overlaps, locally (folds below the tolerance are left as they are)
+        bad = fi[~(det > 0) & ~facts.degenerate3d[fi] & ~small[fi]]
         targets = np.unique(np.concatenate([bad, over]))
         if not len(targets):
             continue
