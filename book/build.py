@@ -60,6 +60,25 @@ def write_results_index(book: Path = BOOK) -> bool:
     return True
 
 
+def write_results_page(dest: Path) -> Path:
+    """Copy ``docs/RESULTS.md`` into the book as ``dest/docs/RESULTS.md`` (git-ignored), so the notebooks'
+    ``[docs/RESULTS.md](../docs/RESULTS.md)`` citations resolve both in the repository and in the book.
+
+    Its links to the committed reports (``../results/...``, outside the book) become the report's path in code
+    style, since Sphinx cannot resolve them.
+    """
+    import re
+
+    text = (BOOK.parent / "docs" / "RESULTS.md").read_text(encoding="utf-8")
+    text = re.sub(r"\[([^\]]*)\]\(\.\./(results/[^)#]*)(#[^)]*)?\)",
+                  lambda m: m.group(1) if m.group(1).strip("`") == m.group(2) else f"{m.group(1)} (`{m.group(2)}`)", text)
+    out = dest / "docs" / "RESULTS.md"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not out.exists() or out.read_text(encoding="utf-8") != text:
+        out.write_text(text, encoding="utf-8")
+    return out
+
+
 def sync_notebooks(src_dir: Path, dest_dir: Path) -> list[Path]:
     """Mirror ``src_dir/*.ipynb`` into ``dest_dir`` (stale copies removed); returns the copies."""
     dest_dir.mkdir(parents=True, exist_ok=True)
@@ -83,6 +102,7 @@ def stage(dest: Path) -> Path:
     for name in SOURCES:
         shutil.copy2(BOOK / name, dest / name)
     sync_notebooks(NOTEBOOKS, dest / "notebooks")
+    write_results_page(dest)
     return dest
 
 
@@ -139,6 +159,7 @@ def main(argv=None) -> int:
     else:
         out, src = BOOK, BOOK
         copies = sync_notebooks(NOTEBOOKS, BOOK / "notebooks")
+        write_results_page(BOOK)
     # autosummary stubs are regenerated on every build; stale ones would be excluded by
     # only_build_toc_files (they are not in _toc.yml when the build starts) and the API pages lost
     shutil.rmtree(src / "_autosummary", ignore_errors=True)
