@@ -301,6 +301,25 @@ def test_plot_repair_marks_the_changed_faces():
     after = fig.axes[1].collections[0].get_facecolor()
     assert np.allclose(after[changed], [1.0, 0.6, 0.1, 1.0]) and not np.allclose(after[~changed][:, 0], 1.0)
     assert len(plot.plot_repair(res, zoom=False).axes) == 2
+    x0, x1 = fig.axes[2].get_xlim()
+    assert fig.axes[2].get_title().startswith("(c) the changed faces, zoom ×") and x1 - x0 < 0.5 * np.ptp(UV[:, 0])
+    spread = np.zeros(len(F), bool)
+    spread[[0, -1]] = True  # changed faces at two far ends of the layout: a "zoom" would show everything
+    res.changed_faces = spread
+    assert len(plot.plot_repair(res).axes) == 2
+    plt.close("all")
+
+
+def test_zoom_inset_magnifies_the_faces():
+    V, F = datasets.disk(4)
+    UV = tutte(V, F)
+    ax = plot.plot_uv_layout(V, F, UV)
+    ins = plot.add_zoom_inset(ax, V, F, UV, [0], context=1.0)
+    (x0, x1), (y0, y1) = ins.get_xlim(), ins.get_ylim()
+    tri = UV[F[0]]
+    assert x0 <= tri[:, 0].min() and tri[:, 0].max() <= x1 and y0 <= tri[:, 1].min() and tri[:, 1].max() <= y1
+    assert x1 - x0 < 0.5 * np.ptp(UV[:, 0]) and ins.get_title().startswith("zoom ×")
+    assert plot.add_zoom_inset(ax, V, F, UV, []) is None
     plt.close("all")
 
 

@@ -377,4 +377,4 @@ def frame_title(frame):
     >>> frame_title({"step": 40, "esd": 4.1234, "flips": 0})
     'it 40: E_SD 4.123, 0 flips'
     """
-    return f"it {frame['step']}: E_SD {frame['esd']:.3f}, {frame['flips']} flips"
+    return f"it {frame['step']}: E_SD {frame['esd']:.4g}, {frame['flips']} flips"
