@@ -280,6 +280,13 @@ def test_plot_density_colours_faces_by_density():
     assert np.allclose(fig.axes[1].collections[0].get_facecolor(), rgba)
     assert fig._suptitle.get_text() == "cap; density spread 25%"
     assert "texel density" in fig.axes[2].get_ylabel()
+    d[:3] = 0.0  # faces of zero UV area: density 0, which once made the title "spread inf%" (and warned)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = plot.plot_density(V, F, UV, F, d, title="cap")
+    assert fig._suptitle.get_text() == "cap; density spread 25% (3 faces of zero UV area left out)"
     plt.close("all")
 
 
@@ -333,3 +340,17 @@ def test_saved_figures_and_self_contained_plotly(tmp_path):
     html = getattr(shown, "data", shown)
     assert "plotly_hover" in html  # the linked-hover script rides along
     assert 'src="https://cdn.plot.ly' not in html and len(html) > 1_000_000  # plotly.js embedded
+
+
+def test_surface_heatmap_colours_match_the_colour_bar():
+    """det J heatmaps on the surface are unlit: a face shows exactly the colour its value has on the colour bar."""
+    pytest.importorskip("pyvista")
+    V, F = datasets.spherical_cap(4)  # curved: lighting would shade faces differently
+    det = np.full(len(F), 2.0)
+    rgba, _ = plot.scalar_colors(det, "detj", (0, 3))
+    img = plot.render_surface(V, F, scalars=det, cmap="detj", clim=(0, 3), window_size=(200, 200))
+    px = img.reshape(-1, 3).astype(int)
+    surface = px[(np.abs(px - 255).sum(1) > 30)]  # not the white background
+    want = np.round(rgba[0, :3] * 255).astype(int)
+    assert len(surface) > 1000
+    assert np.median(np.abs(surface - want).sum(1)) <= 6  # lit, the cap's rim would be far darker

@@ -118,7 +118,9 @@ def plot_density(V, F, UV, FUV, density, *, title=None, view="plane", axes=None)
         Each face's island density over the median island's, e.g.
         :func:`neuraluv.atlas.face_texel_density` ``(V, F, UV, FUV)``.
     title : str, optional
-        Followed by the density spread (largest over smallest, minus 1).
+        Followed by the density spread (largest over smallest, minus 1) over the faces with a finite, positive
+        density (:func:`neuraluv.layout.facts.density_spread`, the number :func:`~neuraluv.layout.validate_layout`
+        reports); faces of zero UV area (density 0) are counted in the title and left out, never an "inf%".
     view : camera (see :func:`~neuraluv.plot.surface.render_surface`)
     axes : two matplotlib Axes, optional
 
@@ -126,11 +128,16 @@ def plot_density(V, F, UV, FUV, density, *, title=None, view="plane", axes=None)
     -------
     fig : matplotlib Figure
     """
+    from neuraluv.layout.facts import density_spread  # here: the layout package loads scipy
+
     d = np.asarray(density, float)
-    spread = float(np.nanmax(d) / np.nanmin(d) - 1) if np.isfinite(d).any() else float("nan")
+    spread = density_spread(d)  # over the finite, positive densities: validate_layout's number
+    zero = int((np.isfinite(d) & (d <= 0)).sum())
+    text = "density spread " + ("n/a" if spread is None else f"{100 * spread:.3g}%")
+    if zero:
+        text += f" ({zero} faces of zero UV area left out)"
     return plot_surface_and_uv(V, F, UV, d, FUV=FUV, cmap="coolwarm", clim=(0.5, 1.5), view=view, axes=axes,
-                               label="texel density / median island",
-                               title=(title + "; " if title else "") + f"density spread {100 * spread:.2g}%")
+                               label="texel density / median island", title=(title + "; " if title else "") + text)
 
 
 def _zoom_window(UV, FUV, faces):

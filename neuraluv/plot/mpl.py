@@ -136,7 +136,7 @@ def plot_uv_layout(V, F, UV, ax=None, *, title=None, FUV=None, face_colors=None,
 
 
 def add_zoom_inset(ax, V, F, UV, faces, *, FUV=None, face_colors=None, bounds=(0.6, 0.6, 0.38, 0.38), context=2.0,
-                   title="zoom", into=None):
+                   title="zoom", into=None, min_window=0.02):
     """An inset on ``ax`` that zooms on ``faces`` of the layout drawn there, with the zoomed box marked on ``ax``.
 
     Parameters
@@ -149,7 +149,9 @@ def add_zoom_inset(ax, V, F, UV, faces, *, FUV=None, face_colors=None, bounds=(0
     bounds : (x0, y0, w, h)
         The inset's place in ``ax``'s axes coordinates.
     context : float
-        The zoomed square is ``1 + context`` times the faces' bounding box (at least 2% of the layout).
+        The zoomed square is ``1 + context`` times the faces' bounding box.
+    min_window : float
+        ... but at least this fraction of the layout's size (lower it to zoom on a sliver).
     title : str
         The inset's title; the zoom factor is appended.
     into : matplotlib Axes, optional
@@ -178,7 +180,7 @@ def add_zoom_inset(ax, V, F, UV, faces, *, FUV=None, face_colors=None, bounds=(0
     lo, hi = pts.min(0), pts.max(0)
     full = UV[FUV].reshape(-1, 2)
     size = float((full.max(0) - full.min(0)).max())
-    c, h = 0.5 * (lo + hi), 0.5 * max((1 + context) * float((hi - lo).max()), 0.02 * size)
+    c, h = 0.5 * (lo + hi), 0.5 * max((1 + context) * float((hi - lo).max()), min_window * size)
     ins = ax.inset_axes(bounds) if into is None else into
     plot_uv_layout(V, F, UV, ax=ins, FUV=FUV, face_colors=face_colors, show_box=False)
     ins.set_xlim(c[0] - h, c[0] + h)
