@@ -130,6 +130,31 @@ def pre_execute(notebooks: list[Path], cache_dir: Path, timeout: int = 600) -> N
         print(f"  failed: {uri} (the build will re-run it and show the error)", flush=True)
 
 
+def prune_cache(notebooks: list[Path], cache_dir: Path) -> int:
+    """Keep one execution per notebook in the cache: the one matching its current code (older records of a
+    notebook whose code changed would stay beside it, each with its figures and plotly films). Returns how many
+    records were removed."""
+    import nbformat
+    from jupyter_cache import get_cache
+
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("notebooks_conftest", NOTEBOOKS / "conftest.py")
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+    prune = hooks.prune
+
+    cache = get_cache(str(cache_dir))
+    removed = 0
+    for nb in notebooks:
+        try:
+            rec = cache.match_cache_notebook(nbformat.read(str(nb), as_version=4))
+        except KeyError:  # not executed yet: the build executes it
+            continue
+        removed += prune(cache, nb.name, keep=rec.pk)
+    return removed
+
+
 def jupyter_book() -> str:
     """The ``jupyter-book`` executable of this interpreter's environment."""
     here = Path(sys.executable).parent / "jupyter-book"
@@ -173,6 +198,10 @@ def main(argv=None) -> int:
     os.environ["PYDEVD_DISABLE_FILE_VALIDATION"] = "1"
     if not a.serial and copies:
         pre_execute(copies, cache_dir)
+    if copies and cache_dir.exists():
+        n = prune_cache(copies, cache_dir)
+        if n:
+            print(f"execution cache: {n} stale record(s) of changed notebooks removed", flush=True)
     cmd = [jupyter_book(), "build", str(src), "--path-output", str(out), "--builder", "html"]
     if a.all:
         cmd.append("--all")
