@@ -197,7 +197,7 @@ def plot_checkerboard_transfer(V, F, UV, FUV=None, *, title=None, view="plane", 
     """The paper's standard figure: checkerboard on the 3D mesh beside the UV layout with the same checks.
 
     The checks are laid over the layout's bounding square, ``n_checks`` across
-    (default :func:`~neuraluv.plot.style.checker_count`: about four mean UV
+    (default :func:`~neuraluv.plot.style.checker_count`: about two mean UV
     edges per check), so the UV panel shows exactly the texture the surface
     carries; flipped faces are red in the UV panel.
 
