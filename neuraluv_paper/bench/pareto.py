@@ -260,3 +260,17 @@ def _figure(out, summary):
     ax = pareto_figure(summary)
     ax.figure.tight_layout()
     return save_figure(ax.figure, Path(out) / "pareto.png", dpi=100)
+
+
+
+def add_arguments(p):
+    p.add_argument("--budgets", nargs="+", type=int, default=None, help="iteration budgets (default 500 750 1000 5000)")
+    p.add_argument("--sets", nargs="+", choices=["compact", "xatlas"], default=["compact", "xatlas"],
+                   help="which sets to run (default both)")
+
+
+def run(args):
+    res = bench(args.meshes, args.budgets, sets=tuple(args.sets), preset=args.preset, quick=args.quick,
+                output=args.output, resume=args.resume, seed=args.seed, device=args.device,
+                show_progress=not args.quiet, args=args)
+    return print_report(res)
