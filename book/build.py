@@ -60,6 +60,25 @@ def write_results_index(book: Path = BOOK) -> bool:
     return True
 
 
+def write_results_page(dest: Path) -> Path:
+    """Copy ``docs/RESULTS.md`` into the book as ``dest/docs/RESULTS.md`` (git-ignored), so the notebooks'
+    ``[docs/RESULTS.md](../docs/RESULTS.md)`` citations resolve both in the repository and in the book.
+
+    Its links to the committed reports (``../results/...``, outside the book) become the report's path in code
+    style, since Sphinx cannot resolve them.
+    """
+    import re
+
+    text = (BOOK.parent / "docs" / "RESULTS.md").read_text(encoding="utf-8")
+    text = re.sub(r"\[([^\]]*)\]\(\.\./(results/[^)#]*)(#[^)]*)?\)",
+                  lambda m: m.group(1) if m.group(1).strip("`") == m.group(2) else f"{m.group(1)} (`{m.group(2)}`)", text)
+    out = dest / "docs" / "RESULTS.md"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not out.exists() or out.read_text(encoding="utf-8") != text:
+        out.write_text(text, encoding="utf-8")
+    return out
+
+
 def sync_notebooks(src_dir: Path, dest_dir: Path) -> list[Path]:
     """Mirror ``src_dir/*.ipynb`` into ``dest_dir`` (stale copies removed); returns the copies."""
     dest_dir.mkdir(parents=True, exist_ok=True)
@@ -83,6 +102,7 @@ def stage(dest: Path) -> Path:
     for name in SOURCES:
         shutil.copy2(BOOK / name, dest / name)
     sync_notebooks(NOTEBOOKS, dest / "notebooks")
+    write_results_page(dest)
     return dest
 
 
@@ -108,6 +128,31 @@ def pre_execute(notebooks: list[Path], cache_dir: Path, timeout: int = 600) -> N
     res = JupyterExecutorLocalMproc(cache).run_and_cache(filter_uris=todo, timeout=timeout)
     for uri in res.excepted + res.errored:
         print(f"  failed: {uri} (the build will re-run it and show the error)", flush=True)
+
+
+def prune_cache(notebooks: list[Path], cache_dir: Path) -> int:
+    """Keep one execution per notebook in the cache: the one matching its current code (older records of a
+    notebook whose code changed would stay beside it, each with its figures and plotly films). Returns how many
+    records were removed."""
+    import nbformat
+    from jupyter_cache import get_cache
+
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("notebooks_conftest", NOTEBOOKS / "conftest.py")
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+    prune = hooks.prune
+
+    cache = get_cache(str(cache_dir))
+    removed = 0
+    for nb in notebooks:
+        try:
+            rec = cache.match_cache_notebook(nbformat.read(str(nb), as_version=4))
+        except KeyError:  # not executed yet: the build executes it
+            continue
+        removed += prune(cache, nb.name, keep=rec.pk)
+    return removed
 
 
 def jupyter_book() -> str:
@@ -139,6 +184,7 @@ def main(argv=None) -> int:
     else:
         out, src = BOOK, BOOK
         copies = sync_notebooks(NOTEBOOKS, BOOK / "notebooks")
+        write_results_page(BOOK)
     # autosummary stubs are regenerated on every build; stale ones would be excluded by
     # only_build_toc_files (they are not in _toc.yml when the build starts) and the API pages lost
     shutil.rmtree(src / "_autosummary", ignore_errors=True)
@@ -152,6 +198,10 @@ def main(argv=None) -> int:
     os.environ["PYDEVD_DISABLE_FILE_VALIDATION"] = "1"
     if not a.serial and copies:
         pre_execute(copies, cache_dir)
+    if copies and cache_dir.exists():
+        n = prune_cache(copies, cache_dir)
+        if n:
+            print(f"execution cache: {n} stale record(s) of changed notebooks removed", flush=True)
     cmd = [jupyter_book(), "build", str(src), "--path-output", str(out), "--builder", "html"]
     if a.all:
         cmd.append("--all")

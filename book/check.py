@@ -11,7 +11,9 @@ iteration slider) is in its page, plotly.js is embedded (no CDN), and Chromium
 draws it: the figure's div gets plotly's SVG layers and the slider, and a
 screenshot of the figure alone shows the det J colours; the Jacobians chapter's
 linked surface/UV views outline a hovered face in both views (a hover event is
-emitted in Chromium and the outline read back). The screenshots are kept in
+emitted in Chromium and the outline read back); one figure of every chapter is
+photographed alone at the book's width (``check/figures/<chapter>.png``, the figure
+named in ``FIGURE_AFTER``) and must not be blank. The screenshots are kept in
 ``<html>/../check/`` for a person to look at.
 
 Exit status 0 when every check passes; 1 with one line per failed check.
@@ -141,6 +143,79 @@ _ISOLATE = """<script>
 """
 
 
+#: Which figure of each chapter the book check photographs: the first figure after the code that names this
+#: identifier (default: the chapter's first figure). The figures issue 30 fixed, so a person can look at them.
+FIGURE_AFTER = {
+    "00b_jacobians_distortion": "add_zoom_inset", "02_tutte_warmup": "solve_filmstrip",
+    "03_stable_loss": "beta_runs", "03c_recipe_ablation_grid": "best neural attempt", "04_flip_rejection": "fig:runtime_pareto) on our data",
+    "05_baselines": "fig6", "06_ntk_probes": "NTK eigvec", "07_atlas_packing": "plot_density", "09_uv_repair": "faces bit-identical",
+}
+
+_SHOW_ONE = """<script>
+(function () {  // show only one figure, at the book's width (a headless screenshot cannot scroll)
+  var img = document.querySelector('img[src="%s"]');
+  if (!img) { document.body.style.display = "none"; return; }  // a blank screenshot: the check fails
+  for (var n = img; n && n !== document.body; n = n.parentElement) {
+    var p = n.parentElement;
+    if (!p) { break; }
+    for (var i = 0; i < p.children.length; i++) {
+      var c = p.children[i];
+      if (c !== n && c.tagName !== "SCRIPT" && !c.contains(document.querySelector("article"))) { c.style.display = "none"; }
+    }
+  }
+  window.scrollTo(0, 0);
+})();
+</script>
+"""
+
+
+def chapter_figure(page: Path) -> str | None:
+    """The ``src`` of the figure the check photographs on a chapter page (see :data:`FIGURE_AFTER`)."""
+    text = page.read_text(encoding="utf-8")
+    marker = FIGURE_AFTER.get(page.stem)
+    start = text.find(marker) if marker else 0
+    m = re.compile(r'<img[^>]*src="([^"]*(?:_images/|data:image)[^"]*)"').search(text, max(start, 0))
+    return m.group(1) if m else None
+
+
+def check_figures(html: Path) -> list[str]:
+    """Photograph one figure of every chapter in Chromium, alone at the book's width; kept in ``check/figures/``."""
+    chromium = _chromium()
+    if chromium is None:
+        print("book/check.py: chromium not installed, figure screenshots SKIPPED")
+        return []
+    import matplotlib.image
+    import numpy as np
+
+    keep = html.parent / "check" / "figures"
+    keep.mkdir(parents=True, exist_ok=True)
+    errors = []
+    for nb in NOTEBOOKS:
+        page = html / "notebooks" / f"{nb.stem}.html"
+        src = chapter_figure(page) if page.exists() else None
+        if src is None:
+            errors.append(f"{page.name}: no figure to photograph")
+            continue
+        probe = page.with_name(f"_check_{page.name}")
+        probe.write_text(page.read_text(encoding="utf-8").replace("</body>", _SHOW_ONE % src + "</body>"), encoding="utf-8")
+        try:
+            with tempfile.TemporaryDirectory() as tmp:
+                shot = Path(tmp) / "figure.png"
+                subprocess.run(_chromium_cmd(chromium, tmp, "--virtual-time-budget=5000", f"--screenshot={shot}",
+                                             "--window-size=1200,900", probe.as_uri()), capture_output=True, timeout=180)
+                if not shot.exists():
+                    errors.append(f"{page.name}: chromium wrote no screenshot of its figure")
+                    continue
+                shutil.copy2(shot, keep / f"{nb.stem}.png")
+                img = np.asarray(matplotlib.image.imread(shot))[..., :3].astype(float)
+        finally:
+            probe.unlink(missing_ok=True)
+        drawn = float((img.mean(axis=2) < 0.9).mean())  # a line plot on white draws about 1% of the window
+        if drawn < 0.003:
+            errors.append(f"{page.name}: the screenshot of its figure is (nearly) blank ({drawn:.3f} drawn)")
+    return errors
+
+
 def check_plotly(html: Path) -> list[str]:
     """The quickstart's solve film: a plotly div with frames and a slider, plotly.js embedded, drawn by Chromium."""
     page = html / "notebooks" / f"{PLOTLY_PAGE}.html"
@@ -241,11 +316,14 @@ def main(argv=None) -> int:
         errors = check_plotly(a.html)
     if not errors:
         errors = check_linked(a.html)
+    if not errors:
+        errors = check_figures(a.html)
     for e in errors:
         print(f"book check failed: {e}", file=sys.stderr)
     if not errors:
         browser = (f"the plotly solve slider renders ({a.html.parent / 'check'}); hovering a face of the linked views "
-                   "outlines it in both") if _chromium() else "the browser checks SKIPPED (no chromium)"
+                   f"outlines it in both; one figure per chapter photographed ({a.html.parent / 'check' / 'figures'})"
+                   ) if _chromium() else "the browser checks SKIPPED (no chromium)"
         print(f"book check passed: {len(NOTEBOOKS)} notebook pages with figures and the API pages; {browser}")
     return 1 if errors else 0
 

@@ -95,7 +95,9 @@ class Claim:
     a table without one); ``table``: the paper's table number (LaTeX order) or
     None; ``claim``: the paper's claim as the report words it; ``verdict``:
     ``holds`` / ``does not hold here`` / ``not tested`` / ``not run``;
-    ``detail``: our numbers.
+    ``detail``: our numbers; ``checks``: the numeric comparisons the verdict
+    rests on (:class:`~neuraluv_paper.claim_rules.Check`: paper, ours, rule);
+    empty for a **qualitative** claim (a category match, no number compared).
     """
 
     source: str | None
@@ -103,6 +105,12 @@ class Claim:
     claim: str
     verdict: str
     detail: str
+    checks: tuple = ()
+
+    @property
+    def numeric(self):
+        """True when the verdict comes from numeric checks with a stated tolerance and direction."""
+        return bool(self.checks)
 
 
 def heading(label, what):
@@ -171,9 +179,24 @@ def findings(root=None):
         data = json.loads(path.read_text(encoding="utf-8"))
         source = (path.parent / data["report"]).relative_to(root).as_posix()
         t = _table_of(source)
-        out += [Claim(source, t["number"] if t else None, f["claim"], f["verdict"], f.get("detail", ""))
+        out += [_judge(Claim(source, t["number"] if t else None, f["claim"], f["verdict"], f.get("detail", "")), root)
                 for f in data["findings"]]
     return sorted(out, key=lambda c: (c.table is None, c.table or 0))
+
+
+def _judge(claim, root):
+    """A runner's claim, re-judged on its numbers when :mod:`neuraluv_paper.claim_rules` has a rule for it:
+    the verdict is "holds" when every check passes; the detail lists paper, ours and the rule of each check."""
+    from neuraluv_paper.claim_rules import checks_for
+
+    checks = tuple(checks_for(claim.source, claim.claim, root))
+    if not checks or claim.verdict == "not tested":
+        return claim
+    verdict = "holds" if all(c.ok for c in checks) else "does not hold here"
+    detail = "; ".join(c.render() for c in checks)
+    if verdict != claim.verdict:
+        detail += f" (the report's own category test said: {claim.verdict})"
+    return Claim(claim.source, claim.table, claim.claim, verdict, detail, checks)
 
 
 def _not_run(number):
@@ -214,7 +237,8 @@ def _table(rows, with_notebooks=False, claims=None):
     for c in rows:
         paper = f"Table {c.table} (`{PAPER_TABLES[c.table - 1]['label']}`)" if c.table else "—"
         evidence = f"`results/{c.source}`" if c.source else "—"
-        verdict = f"**{c.verdict}**" + (f": {c.detail}" if c.detail else "")
+        kind = "numeric" if c.numeric else ("qualitative" if c.verdict in ("holds", "does not hold here") else "")
+        verdict = f"**{c.verdict}**" + (f" ({kind})" if kind else "") + (f": {c.detail}" if c.detail else "")
         line = f"| {paper} | {_cell(c.claim)} | {_cell(verdict)} | {evidence} |"
         if with_notebooks:
             nbs = sorted({ch for ch in CHAPTER_CLAIMS if c in _select(ch, claims)} | {"08"})
@@ -275,6 +299,11 @@ def claims_page(root=None):
         "",
         "Verdicts: **holds**; **does not hold here** (our data disagree; read the detail before quoting the paper's",
         "number); **not tested** (an optional tool is missing); **not run** (no committed run, or no runner at all).",
+        "A **numeric** verdict compares numbers by a stated rule (`neuraluv_paper.claim_rules`): each check prints the",
+        "paper's number, ours, the rule with its tolerance and direction (\"|ours − paper| ≤ 5% of paper\", \"ours > k=0 by",
+        "more than 1%\") and whether it holds; the claim holds when every check does. Where that differs from the",
+        "runner's own category test, the detail says so. A **qualitative** verdict is the runner's category match",
+        "(e.g. \"init fail\" in both) with no number compared.",
         "",
         _table(rows, with_notebooks=True, claims=claims),
         "",

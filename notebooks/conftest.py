@@ -55,9 +55,20 @@ def pytest_sessionfinish(session, exitstatus):
             cell.execution_count = count
         else:
             try:
-                cache.cache_notebook_bundle(CacheBundleIn(executed, str(path)), check_validity=False, overwrite=True)
+                rec = cache.cache_notebook_bundle(CacheBundleIn(executed, str(path)), check_validity=False, overwrite=True)
+                prune(cache, path.name, keep=rec.pk)
             except Exception as exc:  # a cache problem must not fail the tests; the book then executes the notebook
                 print(f"notebooks/conftest: could not cache {path.name} for the book ({type(exc).__name__}: {exc})")
+
+
+def prune(cache, name, keep):
+    """Drop the cache's older executions of notebook ``name`` (any folder) but record ``keep``: a notebook whose
+    code changed gets a new record and the old one would stay, each with its figures (two plotly films embedding
+    plotly.js are some 5 MB a copy). Returns how many were removed."""
+    stale = [r.pk for r in cache.list_cache_records() if Path(r.uri).name == name and r.pk != keep]
+    for pk in stale:
+        cache.remove_cache(pk)
+    return len(stale)
 
 
 def _clean(out, count):

@@ -95,3 +95,46 @@ def test_results_doc_index_is_current():
     assert block == nbhelp.results_index(), "regenerate it: python book/build.py"
     assert all(f"../results/{p.relative_to(RESULTS).as_posix()}" in block
                for p in RESULTS.glob("*/*.md") if p.name != "README.md")
+
+
+@pytest.mark.parametrize("op, ours, ref, tol, absolute, ok", [
+    ("≈", 4.14, 4.13, 0.05, False, True), ("≈", 4.37, 14.04, 0.05, False, False),   # within ±5% of the paper
+    (">", 4.01, 4.00, 0.01, False, False), (">", 4.05, 4.00, 0.01, False, True),     # higher by more than 1%
+    ("<", 0.66, 0.73, 0.01, False, True), ("<", 0.729, 0.73, 0.01, False, False),
+    ("≥", 97.0, 97.6, 0.02, False, True), ("≥", 90.0, 97.6, 0.02, False, False),     # at least paper − 2%
+    ("≤", 0.0, 0.0, 0.0, True, True), ("≤", 0.01, 0.0, 0.0, True, False),
+    ("≈", float("nan"), 4.0, 0.05, False, False), ("≈", float("inf"), 4.0, 0.05, False, False),
+])
+def test_check_rule_direction_and_tolerance(op, ours, ref, tol, absolute, ok):
+    from neuraluv_paper.claim_rules import Check
+
+    c = Check("x", ours, op, ref, tol=tol, absolute=absolute)
+    assert c.ok is ok
+    assert c.render().endswith("holds" if ok else "fails") and "rule " in c.render()
+
+
+@needs_results
+def test_claims_compare_numbers_not_categories():
+    """The claims the issue found judged by category now fail on their numbers, with the rule printed."""
+    rows = {(c.source, c.claim): c for c in nbhelp.findings()}
+    bob = rows["failure-modes/slim_failure_modes.md", "Bob / BFF: paper reports E_SD=14.04"]
+    assert bob.numeric and bob.verdict == "does not hold here"
+    assert "paper 14.04" in bob.detail and "ours 4.369" in bob.detail and "≤ 5% of paper" in bob.detail
+    k16 = next(c for (s, t), c in rows.items() if s == "charts/thingi_scale.md" and t.startswith("…but with higher median"))
+    assert k16.numeric and k16.verdict == "does not hold here" and "by more than 1% of k=0" in k16.detail
+
+
+@needs_results
+def test_every_rule_matches_a_claim_and_verdicts_follow_the_checks():
+    from neuraluv_paper.claim_rules import RULES
+
+    claims = nbhelp.findings()
+    for report, start in RULES:
+        assert any(c.source and c.source.endswith(report) and c.claim.startswith(start) and c.numeric for c in claims), \
+            f"rule {(report, start)} judges no committed claim (renamed?)"
+    for c in claims:
+        if c.numeric:
+            assert c.verdict == ("holds" if all(k.ok for k in c.checks) else "does not hold here"), c.claim
+    page = nbhelp.claims_page()
+    judged = [c for c in claims if c.verdict in ("holds", "does not hold here")]
+    assert page.count("(numeric)") + page.count("(qualitative)") == len(judged)

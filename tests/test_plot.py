@@ -100,7 +100,7 @@ def test_checker_count_follows_the_mesh_resolution():
     V, F = datasets.disk(16)
     UV = tutte(V, F)
     fine = plot.checker_count(UV, F)
-    assert 4 <= coarse < fine <= 96
+    assert 8 <= coarse < fine <= 96  # never the 4x4 board an atlas of a few hundred faces once got
     assert plot.checker_count(UV * 7.0, F) == fine  # scale-free
 
 
@@ -280,6 +280,13 @@ def test_plot_density_colours_faces_by_density():
     assert np.allclose(fig.axes[1].collections[0].get_facecolor(), rgba)
     assert fig._suptitle.get_text() == "cap; density spread 25%"
     assert "texel density" in fig.axes[2].get_ylabel()
+    d[:3] = 0.0  # faces of zero UV area: density 0, which once made the title "spread inf%" (and warned)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = plot.plot_density(V, F, UV, F, d, title="cap")
+    assert fig._suptitle.get_text() == "cap; density spread 25% (3 faces of zero UV area left out)"
     plt.close("all")
 
 
@@ -301,6 +308,25 @@ def test_plot_repair_marks_the_changed_faces():
     after = fig.axes[1].collections[0].get_facecolor()
     assert np.allclose(after[changed], [1.0, 0.6, 0.1, 1.0]) and not np.allclose(after[~changed][:, 0], 1.0)
     assert len(plot.plot_repair(res, zoom=False).axes) == 2
+    x0, x1 = fig.axes[2].get_xlim()
+    assert fig.axes[2].get_title().startswith("(c) the changed faces, zoom ×") and x1 - x0 < 0.5 * np.ptp(UV[:, 0])
+    spread = np.zeros(len(F), bool)
+    spread[[0, -1]] = True  # changed faces at two far ends of the layout: a "zoom" would show everything
+    res.changed_faces = spread
+    assert len(plot.plot_repair(res).axes) == 2
+    plt.close("all")
+
+
+def test_zoom_inset_magnifies_the_faces():
+    V, F = datasets.disk(4)
+    UV = tutte(V, F)
+    ax = plot.plot_uv_layout(V, F, UV)
+    ins = plot.add_zoom_inset(ax, V, F, UV, [0], context=1.0)
+    (x0, x1), (y0, y1) = ins.get_xlim(), ins.get_ylim()
+    tri = UV[F[0]]
+    assert x0 <= tri[:, 0].min() and tri[:, 0].max() <= x1 and y0 <= tri[:, 1].min() and tri[:, 1].max() <= y1
+    assert x1 - x0 < 0.5 * np.ptp(UV[:, 0]) and ins.get_title().startswith("zoom ×")
+    assert plot.add_zoom_inset(ax, V, F, UV, []) is None
     plt.close("all")
 
 
@@ -314,3 +340,17 @@ def test_saved_figures_and_self_contained_plotly(tmp_path):
     html = getattr(shown, "data", shown)
     assert "plotly_hover" in html  # the linked-hover script rides along
     assert 'src="https://cdn.plot.ly' not in html and len(html) > 1_000_000  # plotly.js embedded
+
+
+def test_surface_heatmap_colours_match_the_colour_bar():
+    """det J heatmaps on the surface are unlit: a face shows exactly the colour its value has on the colour bar."""
+    pytest.importorskip("pyvista")
+    V, F = datasets.spherical_cap(4)  # curved: lighting would shade faces differently
+    det = np.full(len(F), 2.0)
+    rgba, _ = plot.scalar_colors(det, "detj", (0, 3))
+    img = plot.render_surface(V, F, scalars=det, cmap="detj", clim=(0, 3), window_size=(200, 200))
+    px = img.reshape(-1, 3).astype(int)
+    surface = px[(np.abs(px - 255).sum(1) > 30)]  # not the white background
+    want = np.round(rgba[0, :3] * 255).astype(int)
+    assert len(surface) > 1000
+    assert np.median(np.abs(surface - want).sum(1)) <= 6  # lit, the cap's rim would be far darker

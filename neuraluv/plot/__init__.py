@@ -41,7 +41,7 @@ from __future__ import annotations
 
 from neuraluv.plot.figures import ROUTE_COLORS, plot_density, plot_repair, plot_routes
 from neuraluv.plot.interactive import LINKED_HOVER_JS, plotly_linked_views, plotly_solve_slider, show_plotly
-from neuraluv.plot.mpl import (add_colorbar, plot_alignment_curves, plot_checkerboard_transfer, plot_face_heatmap,
+from neuraluv.plot.mpl import (add_colorbar, add_zoom_inset, plot_alignment_curves, plot_checkerboard_transfer, plot_face_heatmap,
                                plot_surface_and_uv, plot_trace, plot_uv_layout, save_checkerboard_transfer, save_figure,
                                save_uv_layout, solve_filmstrip)
 from neuraluv.plot.style import (CAMERA_VIEWS, DETJ_CMAP, DETJ_FOLD_COLOR, DETJ_TICKS, camera_view, checker_count,
@@ -56,7 +56,7 @@ __all__ = [
     # surface (pyvista)
     "render_surface", "render_checkerboard", "live_view", "trame_available",
     # matplotlib
-    "add_colorbar", "plot_uv_layout", "plot_checkerboard_transfer", "plot_face_heatmap", "plot_surface_and_uv",
+    "add_colorbar", "plot_uv_layout", "add_zoom_inset", "plot_checkerboard_transfer", "plot_face_heatmap", "plot_surface_and_uv",
     "plot_trace", "plot_alignment_curves", "solve_filmstrip", "save_figure", "save_uv_layout",
     "save_checkerboard_transfer",
     # plotly

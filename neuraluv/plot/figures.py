@@ -118,7 +118,9 @@ def plot_density(V, F, UV, FUV, density, *, title=None, view="plane", axes=None)
         Each face's island density over the median island's, e.g.
         :func:`neuraluv.atlas.face_texel_density` ``(V, F, UV, FUV)``.
     title : str, optional
-        Followed by the density spread (largest over smallest, minus 1).
+        Followed by the density spread (largest over smallest, minus 1) over the faces with a finite, positive
+        density (:func:`neuraluv.layout.facts.density_spread`, the number :func:`~neuraluv.layout.validate_layout`
+        reports); faces of zero UV area (density 0) are counted in the title and left out, never an "inf%".
     view : camera (see :func:`~neuraluv.plot.surface.render_surface`)
     axes : two matplotlib Axes, optional
 
@@ -126,11 +128,40 @@ def plot_density(V, F, UV, FUV, density, *, title=None, view="plane", axes=None)
     -------
     fig : matplotlib Figure
     """
+    from neuraluv.layout.facts import density_spread  # here: the layout package loads scipy
+
     d = np.asarray(density, float)
-    spread = float(np.nanmax(d) / np.nanmin(d) - 1) if np.isfinite(d).any() else float("nan")
+    spread = density_spread(d)  # over the finite, positive densities: validate_layout's number
+    zero = int((np.isfinite(d) & (d <= 0)).sum())
+    text = "density spread " + ("n/a" if spread is None else f"{100 * spread:.3g}%")
+    if zero:
+        text += f" ({zero} faces of zero UV area left out)"
     return plot_surface_and_uv(V, F, UV, d, FUV=FUV, cmap="coolwarm", clim=(0.5, 1.5), view=view, axes=axes,
-                               label="texel density / median island",
-                               title=(title + "; " if title else "") + f"density spread {100 * spread:.2g}%")
+                               label="texel density / median island", title=(title + "; " if title else "") + text)
+
+
+def _zoom_window(UV, FUV, faces):
+    """``(magnification, ((x0, x1), (y0, y1)))``: a square window around ``faces`` (bool mask) with a 20% margin,
+    and how many times smaller it is than the whole layout (0 without faces).
+
+    Examples
+    --------
+    >>> UV = np.array([[0.0, 0], [1, 0], [0, 1], [0.1, 0.1]]); FUV = np.array([[0, 1, 2], [0, 3, 2]])
+    >>> _zoom_window(UV, FUV, np.array([False, False]))[0]
+    0.0
+    >>> round(_zoom_window(UV, FUV, np.array([True, False]))[0], 3)   # the faces span the layout: no zoom
+    0.833
+    """
+    faces = np.asarray(faces, bool)
+    if not faces.any():
+        return 0.0, None
+    UV = np.asarray(UV, float)
+    pts = UV[np.asarray(FUV)[faces]].reshape(-1, 2)
+    allp = UV[np.asarray(FUV)].reshape(-1, 2)
+    size = float((allp.max(0) - allp.min(0)).max())
+    lo, hi = pts.min(0), pts.max(0)
+    c, h = 0.5 * (lo + hi), 0.6 * max(float((hi - lo).max()), 0.02 * size)
+    return size / (2 * h), ((c[0] - h, c[0] + h), (c[1] - h, c[1] + h))
 
 
 def plot_repair(res, *, title=None, zoom=True):
@@ -141,7 +172,8 @@ def plot_repair(res, *, title=None, zoom=True):
     res : :class:`~neuraluv.repair.repair.RepairResult`
     title : str, optional
     zoom : bool
-        Add a panel zoomed on the changed faces (when they cover a small part of the layout).
+        Add a panel zoomed on the changed faces, boxed on the "after" panel, when their window magnifies the
+        layout at least twice (changed faces spread over the whole atlas get no "zoom" panel).
 
     Returns
     -------
@@ -154,8 +186,8 @@ def plot_repair(res, *, title=None, zoom=True):
     ch = np.asarray(res.changed_faces)
     grey = np.array([0.85, 0.87, 0.9, 1.0])
     orange = np.array([1.0, 0.6, 0.1, 1.0])
-    small = ch.any() and ch.mean() < 0.5
-    ncol = 3 if (zoom and small) else 2
+    factor, window = _zoom_window(res.UV, res.FUV, ch)
+    ncol = 3 if (zoom and factor >= 2) else 2  # a "zoom" panel only when it magnifies at least twice
     fig, axes = plt.subplots(1, ncol, figsize=(4.2 * ncol, 4.4))
     if UV0 is not None and FUV0 is not None:
         UV0 = np.asarray(UV0, float)
@@ -171,12 +203,11 @@ def plot_repair(res, *, title=None, zoom=True):
                    title=f"(b) after: {int(ch.sum())} faces changed (orange), {res.after.validation['flips']} flips")
     if ncol == 3:
         plot_uv_layout(Vn, F, res.UV, ax=axes[2], FUV=res.FUV, face_colors=fc, show_box=False,
-                       title="(c) zoom on the changed faces")
-        pts = res.UV[res.FUV[ch]].reshape(-1, 2)
-        lo, hi = pts.min(0), pts.max(0)
-        c, h = 0.5 * (lo + hi), 0.6 * max((hi - lo).max(), 0.02)
-        axes[2].set_xlim(c[0] - h, c[0] + h)
-        axes[2].set_ylim(c[1] - h, c[1] + h)
+                       title=f"(c) the changed faces, zoom ×{factor:.0f}")
+        (x0, x1), (y0, y1) = window
+        axes[2].set_xlim(x0, x1)
+        axes[2].set_ylim(y0, y1)
+        axes[1].indicate_inset_zoom(axes[2], edgecolor="0.2")
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()

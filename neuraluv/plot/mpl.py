@@ -18,7 +18,7 @@ from neuraluv.plot.style import (DETJ_TICKS, checker_count, checker_square, chec
 from neuraluv.plot.surface import render_checkerboard, render_surface
 
 __all__ = [
-    "add_colorbar", "plot_uv_layout", "plot_checkerboard_transfer", "plot_face_heatmap", "plot_surface_and_uv",
+    "add_colorbar", "plot_uv_layout", "add_zoom_inset", "plot_checkerboard_transfer", "plot_face_heatmap", "plot_surface_and_uv",
     "plot_trace", "plot_alignment_curves", "solve_filmstrip", "save_figure", "save_uv_layout",
     "save_checkerboard_transfer",
 ]
@@ -135,11 +135,69 @@ def plot_uv_layout(V, F, UV, ax=None, *, title=None, FUV=None, face_colors=None,
     return ax
 
 
+def add_zoom_inset(ax, V, F, UV, faces, *, FUV=None, face_colors=None, bounds=(0.6, 0.6, 0.38, 0.38), context=2.0,
+                   title="zoom", into=None, min_window=0.02):
+    """An inset on ``ax`` that zooms on ``faces`` of the layout drawn there, with the zoomed box marked on ``ax``.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        The panel with the whole layout (e.g. from :func:`plot_uv_layout`).
+    V, F, UV, FUV, face_colors : as in :func:`plot_uv_layout`
+    faces : (k,) int or bool array
+        The faces to zoom on (flipped faces, changed faces).
+    bounds : (x0, y0, w, h)
+        The inset's place in ``ax``'s axes coordinates.
+    context : float
+        The zoomed square is ``1 + context`` times the faces' bounding box.
+    min_window : float
+        ... but at least this fraction of the layout's size (lower it to zoom on a sliver).
+    title : str
+        The inset's title; the zoom factor is appended.
+    into : matplotlib Axes, optional
+        Draw the zoom in this panel (e.g. the one below ``ax``) instead of an inset; the box on ``ax`` is
+        joined to it the same way.
+
+    Returns
+    -------
+    inset : matplotlib Axes (``into`` when given), or None when ``faces`` is empty
+
+    Examples
+    --------
+    >>> V = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]); F = np.array([[0, 1, 2], [1, 3, 2]])
+    >>> ax = plot_uv_layout(V, F, V[:, :2]); ins = add_zoom_inset(ax, V, F, V[:, :2], [0], context=0.0)
+    >>> np.allclose(ins.get_xlim(), (0, 1)), ins.get_title()
+    (True, 'zoom ×1')
+    >>> pyplot().close(ax.figure)
+    """
+    UV = np.asarray(UV, float)
+    FUV = np.asarray(F if FUV is None else FUV)
+    faces = np.asarray(faces)
+    faces = np.flatnonzero(faces) if faces.dtype == bool else faces.astype(int)
+    if not len(faces):
+        return None
+    pts = UV[FUV[faces]].reshape(-1, 2)
+    lo, hi = pts.min(0), pts.max(0)
+    full = UV[FUV].reshape(-1, 2)
+    size = float((full.max(0) - full.min(0)).max())
+    c, h = 0.5 * (lo + hi), 0.5 * max((1 + context) * float((hi - lo).max()), min_window * size)
+    ins = ax.inset_axes(bounds) if into is None else into
+    plot_uv_layout(V, F, UV, ax=ins, FUV=FUV, face_colors=face_colors, show_box=False)
+    ins.set_xlim(c[0] - h, c[0] + h)
+    ins.set_ylim(c[1] - h, c[1] + h)
+    ins.set_title(f"{title} ×{size / (2 * h):.0f}".strip(), fontsize=8 if into is None else 9, color="black")
+    for side in ins.spines.values():
+        side.set_edgecolor("0.2")
+        side.set_linewidth(1.2)
+    ax.indicate_inset_zoom(ins, edgecolor="0.2", alpha=0.9)
+    return ins
+
+
 def plot_checkerboard_transfer(V, F, UV, FUV=None, *, title=None, view="plane", n_checks="auto"):
     """The paper's standard figure: checkerboard on the 3D mesh beside the UV layout with the same checks.
 
     The checks are laid over the layout's bounding square, ``n_checks`` across
-    (default :func:`~neuraluv.plot.style.checker_count`: about four mean UV
+    (default :func:`~neuraluv.plot.style.checker_count`: about two mean UV
     edges per check), so the UV panel shows exactly the texture the surface
     carries; flipped faces are red in the UV panel.
 

@@ -104,8 +104,11 @@ def checker_square(UV, FUV):
     return T.min(axis=0), (span if span > 0 else 1.0)
 
 
-def checker_count(UV, F, FUV=None, *, edges_per_check=4.0, lo=4, hi=96):
+def checker_count(UV, F, FUV=None, *, edges_per_check=2.0, lo=8, hi=96):
     """Checks across the UV bounding square so that one check spans about ``edges_per_check`` mean UV edges.
+
+    At least ``lo``: a coarse mesh or a packed atlas of a few hundred faces would
+    otherwise get a board of 4×4 checks, too coarse to show any distortion.
 
     The checkerboard is laid over the layout's bounding square
     (:func:`checker_square`); a fixed count would make the checks sub-triangle
@@ -131,7 +134,7 @@ def checker_count(UV, F, FUV=None, *, edges_per_check=4.0, lo=4, hi=96):
     >>> from neuraluv.tutte import tutte
     >>> V, F = disk(4); coarse = checker_count(tutte(V, F), F)
     >>> V, F = disk(16); fine = checker_count(tutte(V, F), F)
-    >>> lo_ok = 4 <= coarse < fine <= 96
+    >>> lo_ok = 8 <= coarse < fine <= 96
     >>> lo_ok
     True
     """
@@ -377,4 +380,4 @@ def frame_title(frame):
     >>> frame_title({"step": 40, "esd": 4.1234, "flips": 0})
     'it 40: E_SD 4.123, 0 flips'
     """
-    return f"it {frame['step']}: E_SD {frame['esd']:.3f}, {frame['flips']} flips"
+    return f"it {frame['step']}: E_SD {frame['esd']:.4g}, {frame['flips']} flips"

@@ -34,7 +34,9 @@ def render_surface(V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, FU
     F : (m,3) int array
     scalars : (m,) float array, optional
         Per-face values for a heatmap (colours from ``cmap``/``clim``, or
-        ``cmap="detj"``; see :func:`~neuraluv.plot.style.scalar_colors`). The
+        ``cmap="detj"``; see :func:`~neuraluv.plot.style.scalar_colors`). Heatmaps
+        and ``face_colors`` are drawn unlit, so every face shows exactly its colour
+        bar's colour (a textured or plain surface is shaded). The
         image has no colour bar: :func:`~neuraluv.plot.mpl.plot_face_heatmap` and
         :func:`~neuraluv.plot.mpl.plot_surface_and_uv` add a matplotlib one
         (``scalar_bar="title"`` adds pyvista's instead).
@@ -108,10 +110,11 @@ def _add_surface(pl, V, F, *, scalars=None, cmap="viridis", clim=None, uv=None, 
         fc = np.asarray(face_colors, float)
         fc = fc[:, :3] if fc.max() <= 1.0 else fc[:, :3] / 255.0
         mesh.cell_data["rgb"] = (np.clip(fc, 0, 1) * 255).astype(np.uint8)
-        pl.add_mesh(mesh, scalars="rgb", rgb=True, show_scalar_bar=False)
+        # unlit: shading would darken each face's colour, and the picture would no longer match its colour bar
+        pl.add_mesh(mesh, scalars="rgb", rgb=True, show_scalar_bar=False, lighting=False)
     elif scalars is not None:
         mesh.cell_data["value"] = np.asarray(scalars, float)
-        pl.add_mesh(mesh, scalars="value", cmap=cmap, clim=clim, show_scalar_bar=True,
+        pl.add_mesh(mesh, scalars="value", cmap=cmap, clim=clim, show_scalar_bar=True, lighting=False,
                     scalar_bar_args={"title": scalar_bar})
     else:
         pl.add_mesh(mesh, color="lightsteelblue")

@@ -28,7 +28,7 @@ from neuraluv_paper.bench.provenance import (PAPER_NOTE, BenchOutput, command_li
                                              start_run, with_paper, write_csv, write_markdown)
 from neuraluv_paper.claims import heading
 
-__all__ = ["bench", "add_arguments", "run", "closest_charts", "BUDGETS", "XATLAS_TARGETS"]
+__all__ = ["bench", "add_arguments", "run", "closest_charts", "pareto_figure", "read_summary", "BUDGETS", "XATLAS_TARGETS"]
 
 #: The paper's iteration budgets.
 BUDGETS = [500, 750, 1000, 5000]
@@ -191,29 +191,76 @@ def _findings(summary):
     return F
 
 
-def _figure(out, summary):
+def read_summary(folder=None):
+    """The committed sweep's summary rows (``runtime_pareto.csv``: set, iterations, valid, n, median_esd,
+    mean_min_det, mean_flip, median_time; numbers as floats). Default folder: ``results/pareto``."""
+    import csv
+
+    from neuraluv_paper.claims import results_dir
+
+    path = Path(folder if folder is not None else results_dir() / "pareto") / "runtime_pareto.csv"
+    with path.open(newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    return [{k: (v if k == "set" else float(v)) for k, v in r.items()} for r in rows]
+
+
+def pareto_figure(summary, ax=None, *, title="Runtime–quality trade-off (budget annotated)"):
+    """The paper's Fig. 9 (fig:runtime_pareto) on our data: median E_SD against median runtime per iteration budget.
+
+    Our sets (solid, budget annotated) beside the paper's published CUDA points (dashed, hollow;
+    :data:`~neuraluv_paper.bench.paper_values.RUNTIME_PARETO`). Both axes are logarithmic with plain tick labels.
+
+    Parameters
+    ----------
+    summary : list of dict
+        Rows with ``set`` ("compact" / "xatlas"), ``iterations``, ``n``, ``median_esd``, ``median_time``
+        (:func:`bench`'s summary, or :func:`read_summary`).
+    ax : matplotlib Axes, optional
+    title : str
+
+    Returns
+    -------
+    ax : matplotlib Axes
+    """
     plt = plot.pyplot()
-    fig, ax = plt.subplots(figsize=(6, 4))
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.5, 4.2))
     for g, col in (("compact", "tab:blue"), ("xatlas", "tab:orange")):
-        ss = [s for s in summary if s["set"] == g]
+        ss = sorted((s for s in summary if s["set"] == g), key=lambda s: s["iterations"])
         if ss:
             ax.plot([s["median_time"] for s in ss], [s["median_esd"] for s in ss], "o-", color=col,
-                    label=f"ours: {g} ({ss[0]['n']} charts)")
+                    label=f"ours (CPU): {g} ({int(ss[0]['n'])} charts)")
             for s in ss:
-                ax.annotate(f"{s['iterations']}", (s["median_time"], s["median_esd"]), fontsize=7,
+                ax.annotate(f"{int(s['iterations'])}", (s["median_time"], s["median_esd"]), fontsize=7,
                             textcoords="offset points", xytext=(4, 4))
         key = "compact" if g == "compact" else "thingi"
         ps = sorted((it, v) for (k, it), v in PV.RUNTIME_PARETO.items() if k == key)
         ax.plot([v["median_time"] for _, v in ps], [v["median_esd"] for _, v in ps], "o--", mfc="none", color=col,
                 alpha=0.6, label=f"paper (CUDA): {key}")
+        for it, v in ps:
+            ax.annotate(f"{it}", (v["median_time"], v["median_esd"]), fontsize=6, color=col, alpha=0.8,
+                        textcoords="offset points", xytext=(4, -9))
     ax.set_xscale("log")
     ax.set_yscale("log")
+    plain = FuncFormatter(lambda x, _: f"{x:g}")
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(FuncFormatter(lambda x, _: f"{x:g}" if f"{x:g}"[0] in "246" else ""))
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel("median time (s)")
     ax.set_ylabel("median E_SD")
     ax.legend(fontsize=7)
-    ax.set_title("Runtime–quality trade-off (budget annotated)", fontsize=9)
-    fig.tight_layout()
-    return save_figure(fig, Path(out) / "pareto.png", dpi=100)
+    ax.set_title(title, fontsize=9)
+    return ax
+
+
+def _figure(out, summary):
+    ax = pareto_figure(summary)
+    ax.figure.tight_layout()
+    return save_figure(ax.figure, Path(out) / "pareto.png", dpi=100)
+
 
 
 def add_arguments(p):
