@@ -29,7 +29,8 @@ from pathlib import Path
 
 BOOK = Path(__file__).resolve().parent
 NOTEBOOKS = BOOK.parent / "notebooks"
-SOURCES = ["_config.yml", "_toc.yml", "intro.md", "glossary.md", "symbols.md", "claims.md", "paper_scale.md", "api.md"]
+SOURCES = ["_config.yml", "_toc.yml", "intro.md", "syllabus.md", "runtimes.md", "glossary.md", "symbols.md", "claims.md",
+           "paper_scale.md", "api.md"]
 
 
 def write_claims_page(book: Path = BOOK) -> bool:
@@ -155,6 +156,51 @@ def prune_cache(notebooks: list[Path], cache_dir: Path) -> int:
     return removed
 
 
+#: the placeholder of ``repository.url`` in ``_config.yml`` (replace it once the repository is published)
+PLACEHOLDER_URL = "https://github.com/OWNER/neuraluv"
+
+
+def repository_url(environ=None, cwd: Path = BOOK.parent) -> str | None:
+    """The repository URL for the launch buttons: ``$NEURALUV_REPO_URL``, else ``git remote get-url origin`` (as https)."""
+    env = os.environ if environ is None else environ
+    url = env.get("NEURALUV_REPO_URL", "").strip()
+    if not url:
+        try:
+            url = subprocess.run(["git", "remote", "get-url", "origin"], cwd=str(cwd), capture_output=True,
+                                 text=True, timeout=10).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            url = ""
+    if url.startswith("git@") and ":" in url:  # git@github.com:org/repo.git -> https://github.com/org/repo
+        host, path = url[4:].split(":", 1)
+        url = f"https://{host}/{path}"
+    url = url.removesuffix(".git").rstrip("/")
+    return url if url.startswith(("https://", "http://")) else None
+
+
+def resolve_config(src: Path, out: Path, environ=None) -> Path | None:
+    """A copy of ``src/_config.yml`` with a real repository URL, or without launch buttons; None: use it as is.
+
+    The committed config carries :data:`PLACEHOLDER_URL`. When a URL is known (:func:`repository_url`) it
+    replaces the placeholder; when none is, the launch buttons are left out rather than pointing nowhere.
+    """
+    import yaml
+
+    cfg = yaml.safe_load((src / "_config.yml").read_text(encoding="utf-8"))
+    repo = cfg.get("repository") or {}
+    if repo.get("url") and repo["url"] != PLACEHOLDER_URL:
+        return None
+    url = repository_url(environ)
+    if url:
+        cfg["repository"] = {**repo, "url": url}
+    else:
+        cfg.pop("launch_buttons", None)
+        cfg.pop("repository", None)
+    dest = out / "_build" / "_config.resolved.yml"
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
+    return dest
+
+
 def jupyter_book() -> str:
     """The ``jupyter-book`` executable of this interpreter's environment."""
     here = Path(sys.executable).parent / "jupyter-book"
@@ -203,6 +249,9 @@ def main(argv=None) -> int:
         if n:
             print(f"execution cache: {n} stale record(s) of changed notebooks removed", flush=True)
     cmd = [jupyter_book(), "build", str(src), "--path-output", str(out), "--builder", "html"]
+    config = resolve_config(src, out)
+    if config is not None:
+        cmd += ["--config", str(config)]
     if a.all:
         cmd.append("--all")
     if a.strict:

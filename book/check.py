@@ -73,7 +73,8 @@ def check_pages(html: Path) -> list[str]:
         for s in figs:
             if not s.startswith("data:") and not (page.parent / s).resolve().exists():
                 errors.append(f"{page.name}: missing image {s}")
-    for extra in ("intro.html", "glossary.html", "symbols.html", "claims.html", "paper_scale.html", "api.html"):
+    for extra in ("intro.html", "syllabus.html", "runtimes.html", "glossary.html", "symbols.html", "claims.html",
+                  "paper_scale.html", "api.html"):
         if not (html / extra).exists():
             errors.append(f"no {extra}")
     api = html / "api.html"

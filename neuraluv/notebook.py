@@ -13,6 +13,10 @@ charts). Notebooks choose between the two with :func:`budget`, and print the
 committed reference points beside their own numbers with :func:`reference`
 (e.g. SLIM-1k on the same chart; :func:`neuraluv_paper.claims.reference`).
 
+On a hosted notebook service (Colab, Binder; :func:`hosted`) each chapter's first code cell
+(tagged ``hosted-setup``, source :func:`hosted_setup_source`) installs the package when it is
+missing and fetches the meshes with :func:`fetch_data`; in a checkout it does nothing.
+
 The module also keeps the notebooks quiet (:func:`setup` routes VTK to an
 off-screen EGL window when there is no display and imports tqdm without its
 widget warning). The claims checklist each chapter ends with is the harness's
@@ -29,7 +33,8 @@ import numpy as np
 
 from neuraluv import datasets
 
-__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "quiet_environment", "one_line_errors"]
+__all__ = ["ENV_VAR", "paper_scale", "budget", "setup", "mode", "load_chart", "quiet_environment", "one_line_errors",
+           "HOSTED_ENV", "hosted", "fetch_data", "hosted_setup_source"]
 
 #: Name of the environment variable that selects paper-scale runs.
 ENV_VAR = "NEURALUV_PAPER_SCALE"
@@ -232,3 +237,97 @@ def load_chart(quick="glove", paper="camel", **quick_kwargs):
     except datasets.DataMissing:
         raise datasets.DataMissing(f"this chapter needs the real mesh {name!r}, which is not in "
                                    f"{datasets.data_dir()}: {datasets.FETCH_HINT}, then rerun it") from None
+
+
+#: Set this environment variable (to 1) to make a kernel count as hosted (:func:`hosted`) anywhere.
+HOSTED_ENV = "NEURALUV_HOSTED"
+#: Environment variables a hosted service sets: Colab's release tag, mybinder.org's launch host.
+_HOSTED_MARKERS = (HOSTED_ENV, "COLAB_RELEASE_TAG", "BINDER_LAUNCH_HOST")
+
+
+def hosted(environ=None, modules=None) -> bool:
+    """True in a hosted notebook service: Colab (``google.colab`` imported), Binder, or ``NEURALUV_HOSTED=1``.
+
+    The same test as the chapters' set-up cell (:func:`hosted_setup_source`).
+
+    Parameters
+    ----------
+    environ : mapping, optional
+        Default ``os.environ``.
+    modules : mapping, optional
+        Default ``sys.modules``.
+
+    Examples
+    --------
+    >>> hosted({}, {}), hosted({"NEURALUV_HOSTED": "1"}, {}), hosted({}, {"google.colab": None})
+    (False, True, True)
+    """
+    import sys
+
+    env = os.environ if environ is None else environ
+    mods = sys.modules if modules is None else modules
+    return "google.colab" in mods or any(env.get(k, "").strip().lower() not in ("", "0", "false", "no")
+                                         for k in _HOSTED_MARKERS)
+
+
+def fetch_data(source=None, *, download=True, authored=True, echo=print):
+    """Fetch every registry mesh (and the authored assets) into :func:`neuraluv.datasets.data_dir`.
+
+    What the set-up cell runs on a hosted service after installing the package (the same as ``make data``
+    without a mirror: about 25 MB of meshes, hash-checked).
+
+    Parameters
+    ----------
+    source : path-like, optional
+        A local mirror folder instead of the upstream URLs.
+    download : bool
+    authored : bool
+        Also the authored assets of notebook 09 (:data:`neuraluv.datasets.AUTHORED`).
+    echo : callable
+        Receives the one-line summary.
+
+    Returns
+    -------
+    dict
+        ``{name: path or error message}``.
+    """
+    got = dict(datasets.fetch_all(source, download=download))
+    if authored:
+        got.update(datasets.fetch_authored(source, download=download))
+    bad = sorted(k for k, v in got.items() if isinstance(v, str))
+    echo(f"neuraluv data: {len(got) - len(bad)} of {len(got)} files in {datasets.data_dir()}"
+         + (f"; missing: {', '.join(bad)}" if bad else ""))
+    return got
+
+
+def hosted_setup_source(repo_url):
+    """The source of every chapter's first code cell (tagged ``hosted-setup``): set-up on a hosted service.
+
+    On Colab, Binder or with ``NEURALUV_HOSTED=1`` (:func:`hosted`) it finds the repository (Binder: the
+    notebook runs inside it, one folder down) or clones ``repo_url`` (``$NEURALUV_REPO`` overrides it; the
+    clone carries the committed ``results/`` the chapters read), pip-installs it with the ``render`` extra
+    when ``neuraluv`` is not importable, puts it on ``sys.path`` (an editable install made in a running
+    kernel is only seen after a restart) and fetches the meshes (:func:`fetch_data`). Elsewhere it does
+    nothing. The cell is plain Python (no ``!pip``) so that a unit test can run it in a simulated hosted
+    kernel; ``book/setup_cells.py`` writes it into every notebook.
+
+    Parameters
+    ----------
+    repo_url : str
+        The repository's URL (``repository.url`` of ``book/_config.yml``).
+    """
+    return f"""# Set-up for a hosted notebook service (Colab, Binder): get neuraluv and the meshes there.
+# Anywhere else (a checkout, your own Jupyter) this cell does nothing.
+import importlib.util, os, subprocess, sys  # noqa: E401  (the chapter's own imports follow in the next cell)
+if "google.colab" in sys.modules or any(os.environ.get(k, "").strip().lower() not in ("", "0", "false", "no")
+                                        for k in ("NEURALUV_HOSTED", "COLAB_RELEASE_TAG", "BINDER_LAUNCH_HOST")):
+    repo = os.path.abspath("..")  # Binder: the notebook runs inside the repository
+    if not os.path.exists(os.path.join(repo, "neuraluv", "__init__.py")):  # Colab: only the notebook came
+        repo = os.path.abspath("neuraluv-repo")
+        if not os.path.exists(repo):
+            subprocess.run(["git", "clone", "--depth", "1", os.environ.get("NEURALUV_REPO", "{repo_url}"), repo],
+                           check=True)
+    if importlib.util.find_spec("neuraluv") is None:
+        subprocess.run([sys.executable, "-m", "pip", "install", "-q", "-e", repo + "[render]"], check=True)
+    sys.path.insert(0, repo)  # an install made in a running kernel is only seen after a restart
+    subprocess.run([sys.executable, "-c", "from neuraluv.notebook import fetch_data; fetch_data()"], cwd=repo, check=True)"""

@@ -6,6 +6,11 @@ book's execution cache (jupyter-cache, ``book/_build/.jupyter_cache``, the
 cache ``jupyter-book build`` reads with ``execute_notebooks: cache``), so
 ``make book`` renders them without executing the notebook a second time.
 Set ``NEURALUV_BOOK_CACHE=off`` to skip this.
+
+The same hooks time each notebook (the sum of its cells' wall times) and, for the
+notebooks whose cells all passed, write the book's *Runtimes* page
+(``book/runtimes.py``: ``results/notebooks/runtimes.json`` and ``book/runtimes.md``;
+quick or paper-scale after ``NEURALUV_PAPER_SCALE``). ``NEURALUV_RUNTIMES=off`` skips it.
 """
 from __future__ import annotations
 
@@ -21,13 +26,62 @@ def pytest_runtest_makereport(item, call):
     if call.when != "call" or not hasattr(item, "cell_num") or not hasattr(item, "test_outputs"):
         return
     path = Path(str(item.parent.fspath)).resolve()
-    run = _RUNS.setdefault(path, {"outputs": {}, "failed": False})
+    run = _RUNS.setdefault(path, {"outputs": {}, "failed": False, "seconds": 0.0})
+    run["seconds"] += call.duration
     if call.excinfo is not None:
         run["failed"] = True
     run["outputs"][item.cell_num] = item.test_outputs or []
 
 
+def _record_runtimes():
+    """Write the passed notebooks' times into the book's Runtimes page (never fails the run)."""
+    import json
+
+    def n_code(path):
+        return sum(c["cell_type"] == "code" for c in json.loads(path.read_text(encoding="utf-8"))["cells"])
+
+    done = {p.stem: r["seconds"] for p, r in _RUNS.items() if not r["failed"] and len(r["outputs"]) == n_code(p)}
+    if not done or os.environ.get("NEURALUV_RUNTIMES", "").lower() == "off":
+        return
+    try:
+        import importlib.util
+        import sys
+
+        root = Path(__file__).resolve().parents[1]
+        sys.path.insert(0, str(root))
+        from neuraluv.notebook import paper_scale
+
+        spec = importlib.util.spec_from_file_location("book_runtimes", root / "book" / "runtimes.py")
+        runtimes = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(runtimes)
+        data = runtimes.record(done, scale="paper" if paper_scale() else "quick", machine=_MACHINE.get("line", ""))
+        runtimes.write_page(data)
+    except Exception as exc:  # noqa: BLE001 - timing must not fail the tests
+        print(f"notebooks/conftest: could not write the runtimes ({type(exc).__name__}: {exc})")
+
+
+_MACHINE: dict = {}
+
+
+def pytest_sessionstart(session):
+    """The machine line of the Runtimes page, read before the notebooks load the machine."""
+    try:
+        import sys
+
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+        from neuraluv.notebook import paper_scale
+        from neuraluv_paper.bench.provenance import machine_info, machine_line
+
+        info = machine_info("cpu")
+        if not paper_scale():
+            info["threads"] = 1  # neuraluv.notebook.setup: quick runs use one torch thread in each kernel
+        _MACHINE["line"] = machine_line(info)
+    except Exception:  # noqa: BLE001 - timing must not fail the tests
+        _MACHINE["line"] = ""
+
+
 def pytest_sessionfinish(session, exitstatus):
+    _record_runtimes()
     if os.environ.get("NEURALUV_BOOK_CACHE", "").lower() == "off" or not _RUNS:
         return
     try:

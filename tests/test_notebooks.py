@@ -2,7 +2,8 @@
 
 (a) every notebook is committed clean (no outputs, no execution counts), has the
     Summary / Exercises / References sections, documents the runtime switch and
-    checks its facts with ``assert``;
+    checks its facts with ``assert``; its first code cell is the hosted set-up cell,
+    its second the one import cell (the course material: tests/test_course.py);
 (b) the notebook switch selects quick or paper-scale settings.
 
 Executing the notebooks is nbval's job (``pytest --nbval-lax notebooks``, which
@@ -47,8 +48,11 @@ def test_notebook_is_clean_and_complete(path):
     assert any(re.search(r"^\s*assert\b", c.source, re.M) for c in code), f"{path.name}: no assert in any code cell"
     assert md and nb.cells[0].cell_type == "markdown" and nb.cells[0].source.startswith("# "), "opens with a title cell"
     assert "NEURALUV_PAPER_SCALE" in md[0].source, f"{path.name}: the first markdown cell must document the switch"
+    setup = [c for c in code if "hosted-setup" in c.metadata.get("tags", [])]
+    assert len(setup) == 1 and setup[0] is code[0], f"{path.name}: the hosted set-up cell first (python book/setup_cells.py)"
+    code = code[1:]
     imports = [c for c in code if re.search(r"^(import|from) \w", c.source, re.M)]
-    assert len(imports) == 1 and imports[0] is code[0], f"{path.name}: one import cell, first"
+    assert len(imports) == 1 and imports[0] is code[0], f"{path.name}: one import cell, first after the set-up cell"
     assert "neuraluv" in code[0].source
 
 
