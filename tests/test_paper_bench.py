@@ -382,3 +382,20 @@ def test_bench_repair_explains_a_rise_in_esd():
     # a case mouette does not take reads "—"; without mouette the column says so
     assert "| — |" in md and "unavailable" not in md
     assert "| not installed |" in _markdown([row], [], mouette_ran=False)
+
+
+@pytest.mark.slow
+def test_atlas_speed_reports_stages_xatlas_and_two_processes_at_once(tmp_path):
+    """``bench speed --atlas``: per-stage times from each command's report, xatlas's own atlas of the same mesh in
+    the same run, and the first asset run as two concurrent processes (issue 28)."""
+    from neuraluv_paper.bench.speed_atlas import STAGES, atlas_timing
+
+    out = atlas_timing(meshes=[], n_generated=1, output=tmp_path, quick=True, argv=["bench", "x"],
+                       show_progress=False, extra=("--preset", "test", "--pack-trials", "1"))
+    row = out.rows[0]
+    assert row["ok"] and all(row["t_" + k] >= 0 for k in STAGES) and row["t_io"] > 0
+    assert row["xatlas_s"] > 0
+    conc = [r for r in out.rows if r["kind"] == "concurrent"]
+    assert len(conc) == 1 and conc[0]["ok"] and conc[0]["wall_s"] > 0
+    text = (tmp_path / "atlas.md").read_text()
+    assert "xatlas s (charts + pack)" in text and "Two at once" in text

@@ -1,4 +1,6 @@
-"""``neuraluv bench speed --atlas``: ``neuraluv atlas`` with its defaults, one process per asset, timed end to end."""
+"""``neuraluv bench speed --atlas``: ``neuraluv atlas`` with its defaults, one process per asset, timed end to end,
+per stage (from the command's own report), beside xatlas's own atlas of the same mesh in the same run, and one asset
+run as two concurrent processes (the busy-machine case)."""
 from __future__ import annotations
 
 import json
@@ -19,7 +21,28 @@ from neuraluv_paper.bench.provenance import (BenchOutput, command_line, machine_
 __all__ = ["atlas_timing", "ATLAS_MESHES"]
 
 
-ATLAS_MESHES = ["cow", "nefertiti", "ogre"]
+ATLAS_MESHES = ["cow", "spot", "fertility", "nefertiti"]
+
+#: The stages of the atlas report's ``info["timings"]``, in order (I/O is the rest of the process's wall time:
+#: imports, reading, writing, the read-back validation).
+STAGES = ("repair", "candidates", "routing", "packing", "validation")
+
+
+def _xatlas_seconds(path):
+    """xatlas's own atlas (charts + pack, in process) of the mesh at ``path``: seconds, or NaN without xatlas."""
+    try:
+        from neuraluv_paper.bench.atlas_quality import xatlas_atlas
+        from neuraluv.io import load_mesh
+
+        V, F = load_mesh(path)
+        return float(xatlas_atlas(V, F, 1024, 4)[3])
+    except ImportError:
+        return float("nan")
+
+
+def _atlas_cmd(path, out, rep, extra):
+    return [sys.executable, "-m", "neuraluv", "atlas", str(path), "-o", str(out), "--report", str(rep), "--quiet",
+            *extra]
 
 
 def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=False, argv=None, show_progress=True,
@@ -34,7 +57,7 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     machine = machine_info("cpu")
-    meshes = list(meshes or (["cow"] if quick else ATLAS_MESHES))
+    meshes = list((["cow"] if quick else ATLAS_MESHES) if meshes is None else meshes)
     n_generated = min(n_generated, 3) if quick else n_generated
     rows = []
     with tempfile.TemporaryDirectory(prefix="neuraluv_atlas_timing_") as tmp:
@@ -50,8 +73,7 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
             inputs.append((p.stem, "generated", p))
         for name, kind, path in inputs:
             res_obj, rep = tmp / f"{name}_atlas.obj", tmp / f"{name}_report.json"
-            cmd = [sys.executable, "-m", "neuraluv", "atlas", str(path), "-o", str(res_obj), "--report", str(rep), "--quiet",
-                   *extra]
+            cmd = _atlas_cmd(path, res_obj, rep, extra)
             t = time.perf_counter()
             pr = subprocess.run(cmd, capture_output=True, text=True)
             out_text, err_text = pr.stdout, pr.stderr
@@ -66,12 +88,15 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
                             "ok": r["ok"], "charts": t_["charts"], "neural_share": t_["neural_share"],
                             "exact_share": t_["exact_share"], "fallback_share": t_["fallback_share"],
                             "atlas_s": r["info"]["time"], **{f"t_{k}": v for k, v in r["info"]["timings"].items()}})
+                row["t_io"] = wall - r["info"]["time"]
             else:
                 row.update({"ok": False, "error": (err_text or out_text).strip()[-200:]})
+            row["xatlas_s"] = _xatlas_seconds(path)
             rows.append(row)
             if show_progress:
                 print(f"atlas {name:16s} {row.get('faces', 0):7d} faces {wall:7.1f}s ok={row.get('ok')} "
                       f"flips={row.get('flips')} overlaps={row.get('overlaps')} peak {row['peak_rss_mb']:.0f} MB", flush=True)
+        concurrent = _concurrent(inputs[0], tmp, extra, rows[0]) if inputs else None
     gen = [r for r in rows if r["kind"] == "generated"]
     head = ["asset", "faces", "wall s", "peak MB", "charts", "neural / exact / fallback faces", "flips", "overlaps",
             "coverage", "ok"]
@@ -91,12 +116,56 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
                      sum(r.get("flips", 0) or 0 for r in gen), sum(r.get("overlaps", 0) or 0 for r in gen),
                      f"{sum(r.get('covered', 0) for r in gen)}/{sum(r.get('faces', 0) for r in gen)}",
                      f"{sum(bool(r.get('ok')) for r in gen)}/{len(gen)}"])
-    md = "\n".join([markdown_table(head, body), "",
+    stage_head = ["asset", "wall s", *STAGES, "I/O", "xatlas s (charts + pack)", "wall / xatlas"]
+    stage_body = [[r["asset"], f"{r['wall_s']:.1f}", *[f"{r.get('t_' + k, float('nan')):.1f}" for k in STAGES],
+                   f"{r.get('t_io', float('nan')):.1f}", f"{r['xatlas_s']:.2f}", f"{r['wall_s'] / r['xatlas_s']:.0f}×"
+                   if r["xatlas_s"] > 0 else "—"] for r in rows if r["kind"] != "generated"]
+    if gen:
+        med = {k: float(np.median([r.get("t_" + k, np.nan) for r in gen])) for k in (*STAGES, "io")}
+        xs = float(np.median([r["xatlas_s"] for r in gen]))
+        stage_body.append([f"{len(gen)} generated (median)", f"{np.median(w):.1f}", *[f"{med[k]:.1f}" for k in STAGES],
+                           f"{med['io']:.1f}", f"{xs:.2f}", f"{np.median(w) / xs:.0f}×" if xs > 0 else "—"])
+    conc = ([f"**Two at once** ({concurrent['asset']}, two `neuraluv atlas` processes started together on the same "
+             f"cores): {concurrent['walls'][0]:.1f} s and {concurrent['walls'][1]:.1f} s against {concurrent['alone']:.1f} s "
+             f"alone (×{max(concurrent['walls']) / concurrent['alone']:.2f}); both valid: "
+             f"{'yes' if all(concurrent['ok']) else '**no**'}; faces routed to fallbacks: "
+             f"{', '.join(f'{100 * x:.1f}%' for x in concurrent['fallback'])} (alone "
+             f"{100 * concurrent['fallback_alone']:.1f}%).", ""] if concurrent else [])
+    md = "\n".join([markdown_table(head, body), "", "Per stage (seconds, from each command's report; I/O = the rest of "
+                    "the process: imports, reading, writing, the read-back validation), beside xatlas's own atlas of the "
+                    "same mesh (its charts and packer, in process, timed in the same run):", "",
+                    markdown_table(stage_head, stage_body), "", *conc,
                     "Each row is one `neuraluv atlas IN -o OUT.obj --report R.json` process with default options "
                     "(preset `fast`), timed from start to exit; *peak MB* is the process's peak resident memory; "
                     "flips, overlaps, coverage and padding are the command's validation of the OBJ it wrote, read back."])
     cmd = command_line("speed") if argv is None else "neuraluv " + " ".join(argv)
+    if concurrent:
+        rows.append({"asset": f"{concurrent['asset']} x2 concurrent", "kind": "concurrent",
+                     "wall_s": max(concurrent["walls"]), "ok": all(concurrent["ok"]), "alone_s": concurrent["alone"]})
     files = [write_csv(out / "atlas.csv", rows),
              write_markdown(out / "atlas.md", "Atlas throughput: `neuraluv atlas` with defaults", md, command=cmd,
                             machine=machine)]
     return BenchOutput(name="atlas-speed", rows=rows, markdown=md, files=files)
+
+
+def _concurrent(inp, tmp, extra, alone):
+    """Run the first asset as two ``neuraluv atlas`` processes at once: their walls, validity and fallback shares."""
+    name, _, path = inp
+    procs, reps = [], []
+    t = time.perf_counter()
+    for k in range(2):
+        rep = tmp / f"{name}_concurrent{k}.json"
+        reps.append(rep)
+        procs.append(subprocess.Popen(_atlas_cmd(path, tmp / f"{name}_concurrent{k}.obj", rep, extra),
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    walls = []
+    for p in procs:
+        p.wait()
+        walls.append(time.perf_counter() - t)
+    ok, fallback = [], []
+    for rep in reps:
+        r = json.loads(rep.read_text()) if rep.exists() else {}
+        ok.append(bool(r.get("ok")))
+        fallback.append(float(r.get("totals", {}).get("fallback_share", float("nan"))))
+    return {"asset": name, "walls": walls, "ok": ok, "fallback": fallback, "alone": alone["wall_s"],
+            "fallback_alone": float(alone.get("fallback_share", float("nan")))}
