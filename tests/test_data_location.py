@@ -91,3 +91,14 @@ def test_bench_cli_exits_2_with_one_line_on_missing_meshes(argv, no_data, tmp_pa
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("neuraluv: error:") and "make data" in err, err
     assert not list(out.glob("*.md")) and not list(out.glob("*.csv")), "no table for missing inputs"
+
+
+def test_atlas_speed_refuses_a_missing_mesh(tmp_path, monkeypatch):
+    """``bench speed --atlas`` with a registry mesh not in the data folder: an error, not a table without its row."""
+    from neuraluv import datasets
+    from neuraluv_paper.bench.speed_atlas import atlas_timing
+
+    monkeypatch.setenv("NEURALUV_DATA", str(tmp_path / "empty"))
+    with pytest.raises(datasets.DataMissing, match="make data"):
+        atlas_timing(meshes=["cow"], n_generated=0, output=tmp_path / "out", show_progress=False)
+    assert not (tmp_path / "out" / "atlas.md").exists()

@@ -63,9 +63,12 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
     with tempfile.TemporaryDirectory(prefix="neuraluv_atlas_timing_") as tmp:
         tmp = Path(tmp)
         inputs = []
+        missing = [m for m in meshes if not datasets.available(m)]
+        if missing:  # a missing input is an error, never a shorter table
+            raise datasets.DataMissing(f"the real mesh(es) {', '.join(missing)} not in {datasets.data_dir()}: "
+                                       f"{datasets.FETCH_HINT}")
         for m in meshes:
-            if datasets.available(m):
-                inputs.append((m, "registry", datasets.fetch(m, download=False)))
+            inputs.append((m, "registry", datasets.fetch(m, download=False)))
         for i in range(n_generated):
             V, F, _ = generated_asset(i)
             p = tmp / f"generated_{i:03d}.obj"
