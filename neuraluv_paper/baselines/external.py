@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from neuraluv.topology import topology_scan
 from neuraluv_paper.baselines.common import InitFail, Unavailable, weld_corners
 
 __all__ = ["xatlas_map", "BLENDER_MODES", "blender_python", "blender_map", "optcuts_binary", "optcuts_map",
-           "bff_binary", "bff_cli_map", "built_binary", "TRIANGLE_NOTE"]
+           "blender_run", "BPY_MISSING", "bff_binary", "bff_cli_map", "built_binary", "TRIANGLE_NOTE"]
 
 #: Where ``make baselines`` (data_scripts/build_baselines.sh) puts the binaries, relative to the repository root.
 BUILT_DIR = Path(".cache") / "third_party" / "bin"
@@ -105,8 +106,81 @@ def blender_python():
     return str(venv) if venv.exists() else None
 
 
+BPY_MISSING = ("Blender's bpy module not found: run `make blender-env` in the repository (bpy 4.5 in .venv-bpy, found "
+               "automatically), or set NEURALUV_BPY_PYTHON to a Python that has `pip install 'bpy==4.5.*' numpy`")
+
+
+def blender_run(V, F, mode="SMART", *, uv=None, pack=None, timeout=600, **params):
+    """Run Blender's unwrap and/or ``uv.pack_islands`` on a mesh in a subprocess; its loop UVs and timings.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+    mode : {"SMART", "ANGLE_BASED", "CONFORMAL", "MINIMUM_STRETCH", "NONE"}
+        The unwrap; ``"NONE"`` keeps ``uv``.
+    uv : (3m,2) float array, optional
+        Loop UVs to start from (row ``3t+j``: corner ``j`` of face ``t``), for ``mode="NONE"``.
+    pack : dict, optional
+        Keyword arguments of ``bpy.ops.uv.pack_islands``, run after the unwrap on every face.
+    timeout : float
+        Seconds before the Blender process is killed.
+    **params
+        Passed to the unwrap operator (e.g. ``angle_limit``, ``island_margin``, ``margin``).
+
+    Returns
+    -------
+    dict
+        ``uv`` (3m,2) loop UVs, ``seconds`` (the unwrap operator's own time), ``pack_seconds``
+        (the pack operator's, NaN without ``pack``) and ``wall`` (the whole process: start,
+        ``import bpy``, the mesh built, the operators, the UVs written) and ``version`` (Blender's).
+
+    Raises
+    ------
+    Unavailable
+        Without an interpreter that has ``bpy`` (:func:`blender_python`).
+    RuntimeError
+        When Blender fails, times out or changes the face corners.
+
+    Notes
+    -----
+    The script :mod:`neuraluv_paper.baselines._blender_unwrap` runs under the interpreter
+    returned by :func:`blender_python` (``bpy`` is ~370 MB and kept out of the
+    main environment).
+    """
+    py = blender_python()
+    if py is None:
+        raise Unavailable(BPY_MISSING)
+    script = Path(__file__).with_name("_blender_unwrap.py")
+    what = f"Blender {mode}" + (" + pack_islands" if pack is not None else "")
+    with tempfile.TemporaryDirectory(prefix="neuraluv_bpy_") as tmp:
+        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        arrays = dict(V=np.asarray(V, float), F=np.asarray(F, np.int64))
+        if uv is not None:
+            arrays["uv"] = np.asarray(uv, float)
+        np.savez(src, **arrays)
+        cmd = [py, str(script), str(src), str(dst), mode, json.dumps(dict(params, **({"pack": pack} if pack else {})))]
+        t0 = time.perf_counter()
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise RuntimeError(f"{what} timed out after {timeout} s") from None
+        wall = time.perf_counter() - t0
+        if proc.returncode != 0 or not dst.exists():
+            tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["no output"]
+            raise RuntimeError(f"{what} failed (exit {proc.returncode}): {tail[0]}")
+        out = np.load(dst)
+        UV = np.asarray(out["uv"], float)
+        res = {"uv": UV, "seconds": float(out["seconds"]), "wall": wall,
+               "pack_seconds": float(out["pack_seconds"]), "version": str(out["version"])}
+    m = len(F)
+    if UV.shape != (3 * m, 2):
+        raise RuntimeError(f"{what} returned {UV.shape} loop UVs for {m} faces")
+    return res
+
+
 def blender_map(V, F, mode="SMART", *, timeout=600, **params):
-    """Blender's UV unwrap in a subprocess; per-corner UVs on the exploded mesh.
+    """Blender's UV unwrap in a subprocess (:func:`blender_run`); per-corner UVs on the exploded mesh.
 
     Parameters
     ----------
@@ -124,37 +198,10 @@ def blender_map(V, F, mode="SMART", *, timeout=600, **params):
         The loop UVs welded into a cut mesh (:func:`weld_corners`: corners
         sharing a vertex and a UV become one vertex) and Blender's own
         operator time.
-
-    Notes
-    -----
-    The script :mod:`neuraluv_paper.baselines._blender_unwrap` runs under the interpreter
-    returned by :func:`blender_python` (``bpy`` is ~370 MB and kept out of the
-    main environment).
     """
-    py = blender_python()
-    if py is None:
-        raise Unavailable("Blender's bpy module not found: run `make blender-env` in the repository (bpy 4.5 in "
-                          ".venv-bpy, found automatically), or set NEURALUV_BPY_PYTHON to a Python that has "
-                          "`pip install 'bpy==4.5.*' numpy`")
-    script = Path(__file__).with_name("_blender_unwrap.py")
-    with tempfile.TemporaryDirectory(prefix="neuraluv_bpy_") as tmp:
-        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
-        np.savez(src, V=np.asarray(V, float), F=np.asarray(F, np.int64))
-        cmd = [py, str(script), str(src), str(dst), mode, json.dumps(params)]
-        try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            raise RuntimeError(f"Blender {mode} timed out after {timeout} s") from None
-        if proc.returncode != 0 or not dst.exists():
-            tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["no output"]
-            raise RuntimeError(f"Blender {mode} failed (exit {proc.returncode}): {tail[0]}")
-        out = np.load(dst)
-        UV, secs = np.asarray(out["uv"], float), float(out["seconds"])
-    m = len(F)
-    if UV.shape != (3 * m, 2):
-        raise RuntimeError(f"Blender returned {UV.shape} loop UVs for {m} faces")
-    vidx, F_cut, UV_cut = weld_corners(F, UV)
-    return UV_cut, np.asarray(V, float)[vidx], F_cut, secs
+    r = blender_run(V, F, mode, timeout=timeout, **params)
+    vidx, F_cut, UV_cut = weld_corners(F, r["uv"])
+    return UV_cut, np.asarray(V, float)[vidx], F_cut, r["seconds"]
 
 
 

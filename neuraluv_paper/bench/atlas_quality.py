@@ -33,7 +33,7 @@ from neuraluv.meshfix import normalize_unit_box
 from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, fmt_pct, machine_info, markdown_table,
                                              print_report, write_csv, write_markdown)
 
-__all__ = ["add_arguments", "bench", "run", "seam_length", "xatlas_atlas"]
+__all__ = ["add_arguments", "bench", "measure_layout", "run", "seam_length", "xatlas_atlas"]
 
 DEFAULT_MESHES = ["cow", "spot", "stanford-bunny", "fertility", "nefertiti"]
 
@@ -87,12 +87,35 @@ def xatlas_atlas(V, F, resolution, padding):
     return np.asarray(vmap, np.int64), ind, np.asarray(uv, np.float32).astype(float), secs, float(at.utilization)
 
 
-def _measure(V, F, UV, FUV, resolution, padding):
+def measure_layout(V, F, UV, FUV, resolution, padding):
+    """One UV layout measured as every atlas row of the benchmarks is (see the module's list).
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F : (m,3) int array
+        Faces of the uncut mesh (so the seams are the cut edges).
+    UV : (p,2) float array
+    FUV : (m,3) int array
+    resolution : int
+    padding : float
+        Texels at ``resolution``.
+
+    Returns
+    -------
+    dict
+        ``islands``, ``flips``, ``mirrored_islands``, ``overlapping_pairs``,
+        ``self_overlapping_islands``, ``padding_violations``, ``min_gap_texels`` (None where
+        there is no pair), ``utilisation`` (summed UV triangle area over the texture),
+        ``density_spread``, ``seam`` (on the unit-box mesh) and ``valid``
+        (:func:`~neuraluv.layout.validate_layout`).
+    """
     Vn = normalize_unit_box(V)[0]
     val = validate_layout(V, F, UV, FUV, padding=padding, resolution=resolution, tiles=bool(UV.max() > 1))
     return {
         "islands": val["islands"], "flips": val["flips"], "mirrored_islands": val["mirrored_islands"],
-        "overlapping_pairs": val["overlapping_pairs"], "padding_violations": val["padding_violations"],
+        "overlapping_pairs": val["overlapping_pairs"], "self_overlapping_islands": val["self_overlapping_islands"],
+        "padding_violations": val["padding_violations"],
         "min_gap_texels": val["min_gap_texels"] if isinstance(val["min_gap_texels"], float) else None,
         "utilisation": float(np.abs(signed_areas_2d(UV, FUV)).sum()), "density_spread": val["density_spread"],
         "seam": seam_length(Vn, F, FUV), "valid": val["valid"],
@@ -129,7 +152,7 @@ def bench(args):
             notes.append(f"- {name}: not run ({why})")
             continue
         vmap, Fx, UVx, tx, xutil = xatlas_atlas(V, F, res_, pad)
-        mx = _measure(V, vmap[Fx], UVx, Fx, res_, pad)  # on the uncut mesh, so seams are cut edges
+        mx = measure_layout(V, vmap[Fx], UVx, Fx, res_, pad)  # on the uncut mesh, so seams are cut edges
         base = {"mesh": name, "faces": int(len(F))}
         rows.append({**base, "method": "xatlas (own charts + packer)", **mx, "pack_seconds": tx, "xatlas_raster_util": xutil,
                      "fallback_share": 0.0, "charts": mx["islands"]})
@@ -147,7 +170,7 @@ def bench(args):
                 rows.append({**base, "method": f"ours + {packer}", "error": f"{type(exc).__name__}: {exc}"})
                 continue
             tp = r.info["timings"]["packing"] if r is res else time.perf_counter() - t
-            m = _measure(r.V, r.F, r.UV, r.FUV, res_, pad)
+            m = measure_layout(r.V, r.F, r.UV, r.FUV, res_, pad)
             used = r.info["packer"]
             label = (f"ours + {packer}" if used == packer.split(",")[0] else
                      f"ours + {packer} → {used.split(' ')[0]} (fell back)")
