@@ -399,3 +399,11 @@ def test_atlas_speed_reports_stages_xatlas_and_two_processes_at_once(tmp_path):
     assert len(conc) == 1 and conc[0]["ok"] and conc[0]["wall_s"] > 0
     text = (tmp_path / "atlas.md").read_text()
     assert "xatlas s (charts + pack)" in text and "Two at once" in text
+    assert 0 < row["utilisation"] < 1 and 0 < row["xatlas_utilisation"] < 1  # one measure, on the layouts read back
+    assert "Blender s (unwrap + pack; process)" in text  # Blender's atlas of the same mesh, or one line saying why not
+    from neuraluv_paper.baselines.external import blender_python
+
+    if blender_python() is None:
+        assert "Blender not run on 1 of 1 assets — unavailable: Blender's bpy module not found" in text
+    else:
+        assert row["blender_status"] == "ok" and row["blender_pack_s"] > 0 and 0 < row["blender_utilisation"] < 1
