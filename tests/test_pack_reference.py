@@ -6,8 +6,13 @@ import pytest
 
 from neuraluv import datasets
 from neuraluv_paper.baselines.external import blender_python
-from neuraluv_paper.bench.pack_reference import (PACKER_LABELS, blender_atlas, island_list, packer_reference,
-                                                 packers_markdown)
+from neuraluv_paper.bench.pack_reference import (
+    PACKER_LABELS,
+    blender_atlas,
+    island_list,
+    packer_reference,
+    packers_markdown,
+)
 
 NO_BPY = "Blender's bpy not installed (`make blender-env`, or set NEURALUV_BPY_PYTHON to a Python with bpy 4.5)"
 RES, PAD = 128, 4.0
@@ -15,7 +20,7 @@ RES, PAD = 128, 4.0
 
 def _squares():
     """Three flat square islands (sides 1, 2, 1.5) laid out apart: a layout whose 3D and UV agree."""
-    V, F, UV, FUV = [], [], [], []
+    V, F, UV = [], [], []
     x = 0.0
     for s in (1.0, 2.0, 1.5):
         q = np.array([[0, 0], [s, 0], [s, s], [0, s]]) + [x, 0]
@@ -76,7 +81,8 @@ def test_atlas_speed_blender_columns_without_blender_are_one_line():
              "blender_status": "unavailable", "blender_reason": why}]
     md = "\n".join(blender_markdown(rows))
     assert _row(md, "| cow |")[1:4] == ["70.00%", "55.00%", "—"]
-    assert [ln for ln in md.splitlines() if "not run" in ln] == [f"Blender not run on 1 of 1 assets — unavailable: {why}"]
+    line = f"Blender not run on 1 of 1 assets — unavailable: {why}"
+    assert [ln for ln in md.splitlines() if "not run" in ln] == [line]
 
 
 @pytest.mark.skipif(blender_python() is None, reason=NO_BPY)

@@ -14,7 +14,8 @@ Every layout is measured by :func:`~neuraluv_paper.bench.atlas_quality.measure_l
 Padding: ours is the smallest gap between two islands (and to the border), in texels at
 the resolution. Blender's ``margin_method="FRACTION"`` margin is a fraction of the
 output kept around each island, so two islands end ``2 × margin`` apart: it is asked
-for ``padding / (2 · resolution)`` (the border then gets half our padding). xatlas's
+for ``padding / (2 · resolution)`` (the border then gets half our padding), plus a hundredth
+of a texel for its float32 UVs (:func:`blender_pack_options`). xatlas's
 ``padding`` (texels) dilates every chart, so it is asked for half the padding too.
 """
 from __future__ import annotations
@@ -25,7 +26,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from neuraluv.layout.facts import uv_islands
-from neuraluv.layout.pack import tight_pack
+from neuraluv.layout.pack import FLOAT32_SLACK, tight_pack
 from neuraluv_paper.baselines.common import Unavailable, weld_corners
 from neuraluv_paper.baselines.external import blender_run
 from neuraluv_paper.bench.atlas_quality import measure_layout
@@ -42,16 +43,18 @@ PACKER_LABELS = {"ours": "ours (`tight_pack`: shapes, quarter/eighth turns)",
 
 
 def blender_pack_options(resolution, padding):
-    """``bpy.ops.uv.pack_islands`` keywords for our padding: gaps of ``padding`` texels at ``resolution``,
-    rotations by 90° steps only (``CARDINAL``; the operator never mirrors), islands' shapes (``CONCAVE``).
+    """``bpy.ops.uv.pack_islands`` keywords for our padding: gaps of ``padding`` texels at ``resolution``
+    (and :data:`~neuraluv.layout.pack.FLOAT32_SLACK`: Blender places gaps at its margin exactly, and its
+    float32 UVs then fall ~1e-4 texel short), rotations by 90° steps only (``CARDINAL``; the operator never
+    mirrors), islands' shapes (``CONCAVE``).
 
     Examples
     --------
-    >>> blender_pack_options(1024, 4)["margin"] * 2 * 1024
-    4.0
+    >>> round(blender_pack_options(1024, 4)["margin"] * 2 * 1024, 6)
+    4.01
     """
-    return dict(margin=padding / (2.0 * resolution), margin_method="FRACTION", rotate=True, rotate_method="CARDINAL",
-                scale=True, shape_method="CONCAVE")
+    return dict(margin=(padding + FLOAT32_SLACK) / (2.0 * resolution), margin_method="FRACTION", rotate=True,
+                rotate_method="CARDINAL", scale=True, shape_method="CONCAVE")
 
 
 def _unavailable(exc):
@@ -69,9 +72,10 @@ def blender_atlas(V, F, resolution, padding, *, timeout=1800):
     -------
     dict
         ``status`` (``ok``, ``unavailable`` or ``failed`` with a one-line ``reason``); when ``ok``:
-        ``version`` (Blender's), ``unwrap_s`` and ``pack_s`` (each operator's time inside Blender), ``process_s`` (the whole
-        Blender process, from start to exit) and :func:`~neuraluv_paper.bench.atlas_quality.measure_layout`'s
-        numbers of the layout read back (on the input mesh, the loop UVs welded per vertex).
+        ``version`` (Blender's), ``unwrap_s`` and ``pack_s`` (each operator's time inside Blender),
+        ``process_s`` (the whole Blender process, from start to exit) and
+        :func:`~neuraluv_paper.bench.atlas_quality.measure_layout`'s numbers of the layout read back (on
+        the input mesh, the loop UVs welded per vertex).
     """
     F = np.asarray(F, np.int64)
     try:
@@ -209,7 +213,8 @@ def packers_markdown(results, resolution, padding):
             secs = fmt_num(r["seconds"]) + (f" (process {r['process_s']:.1f})" if "process_s" in r else "")
             body.append([mesh, r["islands"], label, secs, fmt_pct(100 * r["utilisation"]), fmt_num(r["min_gap_texels"]),
                          r["padding_violations"], r["flips"], r["mirrored_islands"],
-                         f"{r['overlapping_pairs']} / {r['self_overlapping_islands']}", fmt_pct(100 * r["density_spread"])])
+                         f"{r['overlapping_pairs']} / {r['self_overlapping_islands']}",
+                         fmt_pct(100 * r["density_spread"])])
             if r["packer"] == "xatlas" and r.get("page") != f"{resolution}×{resolution}":
                 notes.append(f"xatlas's page for {mesh} was {r['page']} texels, scaled into the {resolution}² square.")
     return "\n".join([
@@ -217,5 +222,5 @@ def packers_markdown(results, resolution, padding):
         f"and afresh at resolution {resolution} with {padding:g} texels of padding; every layout measured alike: "
         "utilisation = UV area over the texture, overlaps = island pairs / self-overlapping islands). Seconds: the "
         "packer alone (Blender: its operator inside the Blender process; the process, with start-up, in brackets). "
-        "Blender is asked for a `FRACTION` margin of padding / (2 × resolution) per island, xatlas for half the "
-        "padding (each dilates both neighbours).", "", markdown_table(head, body), "", *notes])
+        f"Blender is asked for a `FRACTION` margin of (padding + {FLOAT32_SLACK:g}) / (2 × resolution) per island, "
+        "xatlas for half the padding (each dilates both neighbours).", "", markdown_table(head, body), "", *notes])

@@ -16,13 +16,21 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv import datasets
-from neuraluv.datasets.generated import generated_asset
 from neuraluv.atlas.build import build_atlas
+from neuraluv.datasets.generated import generated_asset
 from neuraluv.io import load_mesh, read_obj, write_obj
 from neuraluv.jacobian import signed_areas_2d
 from neuraluv_paper.bench.pack_reference import blender_atlas, packer_reference, packers_markdown
-from neuraluv_paper.bench.provenance import (BenchOutput, command_line, fmt_num, fmt_pct, machine_info, markdown_table,
-                                             write_csv, write_markdown)
+from neuraluv_paper.bench.provenance import (
+    BenchOutput,
+    command_line,
+    fmt_num,
+    fmt_pct,
+    machine_info,
+    markdown_table,
+    write_csv,
+    write_markdown,
+)
 
 __all__ = ["atlas_timing", "blender_markdown", "ATLAS_MESHES", "RESOLUTION", "PADDING"]
 
@@ -37,7 +45,8 @@ STAGES = ("repair", "candidates", "routing", "packing", "validation")
 #: packer references are made at the same.
 RESOLUTION, PADDING = (inspect.signature(build_atlas).parameters[k].default for k in ("resolution", "padding"))
 
-#: The Blender columns' keys in a row (``blender_`` + a key of :func:`~neuraluv_paper.bench.pack_reference.blender_atlas`).
+#: The Blender columns' keys in a row: ``blender_`` + a key of
+#: :func:`~neuraluv_paper.bench.pack_reference.blender_atlas`.
 BLENDER_KEYS = ("status", "reason", "version", "unwrap_s", "pack_s", "process_s", "islands", "utilisation", "flips",
                 "overlapping_pairs", "self_overlapping_islands", "padding_violations", "min_gap_texels", "valid")
 
@@ -180,14 +189,14 @@ def _markdown(rows, concurrent, packed):
              f"{'yes' if all(concurrent['ok']) else '**no**'}; faces routed to fallbacks: "
              f"{', '.join(f'{100 * x:.1f}%' for x in concurrent['fallback'])} (alone "
              f"{100 * concurrent['fallback_alone']:.1f}%).", ""] if concurrent else [])
-    blender_md = blender_markdown(rows)
-    return "\n".join([markdown_table(head, body), "", "Per stage (seconds, from each command's report; I/O = the rest of "
-                      "the process: imports, reading, writing, the read-back validation), beside xatlas's own atlas of "
-                      "the same mesh (its charts and packer, in process) and Blender's, timed in the same run:", "",
-                      markdown_table(stage_head, stage_body), "", *blender_md, *conc,
-                      "Each row is one `neuraluv atlas IN -o OUT.obj --report R.json` process with default options "
-                      "(preset `fast`), timed from start to exit; *peak MB* is the process's peak resident memory; "
-                      "flips, overlaps, coverage and padding are the command's validation of the OBJ it wrote, read back.",
+    stages = ("Per stage (seconds, from each command's report; I/O = the rest of the process: imports, reading, "
+              "writing, the read-back validation), beside xatlas's own atlas of the same mesh (its charts and packer, "
+              "in process) and Blender's, timed in the same run:")
+    each = ("Each row is one `neuraluv atlas IN -o OUT.obj --report R.json` process with default options (preset "
+            "`fast`), timed from start to exit; *peak MB* is the process's peak resident memory; flips, overlaps, "
+            "coverage and padding are the command's validation of the OBJ it wrote, read back.")
+    return "\n".join([markdown_table(head, body), "", stages, "", markdown_table(stage_head, stage_body), "",
+                      *blender_markdown(rows), *conc, each,
                       *(["", packers_markdown(packed, RESOLUTION, PADDING)] if packed else [])])
 
 
@@ -199,10 +208,11 @@ def _median(rows):
     """The generated set's summary row: medians of the seconds and utilisations, sums of the counts."""
     ok = [r for r in rows if r.get("blender_status") == "ok"]
     out = {"asset": f"{len(rows)} generated (median)", "wall_s": float(np.median([r["wall_s"] for r in rows])),
-           "blender_status": "ok" if ok else rows[0].get("blender_status"), "blender_reason": rows[0].get("blender_reason"),
+           "blender_status": "ok" if ok else rows[0].get("blender_status"),
+           "blender_reason": rows[0].get("blender_reason"),
            "blender_valid": f"{sum(bool(r['blender_valid']) for r in ok)}/{len(rows)}"}
-    for k in ("utilisation", "xatlas_utilisation", *(f"blender_{k}" for k in ("unwrap_s", "pack_s", "process_s",
-                                                                             "utilisation", "islands", "min_gap_texels"))):
+    medians = ("unwrap_s", "pack_s", "process_s", "utilisation", "islands", "min_gap_texels")
+    for k in ("utilisation", "xatlas_utilisation", *(f"blender_{k}" for k in medians)):
         out[k] = float(np.median([r.get(k, np.nan) for r in (ok if k.startswith("blender") else rows)] or [np.nan]))
     for k in ("flips", "overlapping_pairs", "self_overlapping_islands", "padding_violations"):
         out[f"blender_{k}"] = sum(r[f"blender_{k}"] for r in ok)
@@ -231,14 +241,16 @@ def blender_markdown(rows):
                      *([fmt_pct(100 * r["blender_utilisation"]), f"{r['blender_islands']:.0f}", r["blender_flips"],
                         f"{r['blender_overlapping_pairs']} / {r['blender_self_overlapping_islands']}",
                         fmt_num(r["blender_min_gap_texels"]), r["blender_padding_violations"],
-                        r["blender_valid"] if isinstance(r["blender_valid"], str) else ("yes" if r["blender_valid"] else "no")]
+                        r["blender_valid"] if isinstance(r["blender_valid"], str)
+                        else ("yes" if r["blender_valid"] else "no")]
                        if b else ["—"] * 7)])
     version = next((r["blender_version"] for r in runs if r.get("blender_status") == "ok"), "")
     why = sorted({f"{r['blender_status']}: {r.get('blender_reason', '')}" for r in down})
     return [f"Blender {version}: Smart UV Project with its defaults (as the `blender-smart` baseline), then "
-            f"`uv.pack_islands` (concave shapes, 90° steps, margin for {PADDING:g} texels at {RESOLUTION}), each operator timed inside the Blender process; *process* is that process from start "
-            "to exit. Utilisation (UV area over the texture), flips and overlaps are measured on each layout read back, "
-            "as our command measures its own:", "", markdown_table(head, body), "",
+            f"`uv.pack_islands` (concave shapes, 90° steps, margin for {PADDING:g} texels at {RESOLUTION}), each "
+            "operator timed inside the Blender process; *process* is that process from start to exit. Utilisation "
+            "(UV area over the texture), flips and overlaps are measured on each layout read back, as our command "
+            "measures its own:", "", markdown_table(head, body), "",
             *([f"Blender not run on {len(down)} of {len(runs)} assets — {'; '.join(why)}", ""] if down else [])]
 
 

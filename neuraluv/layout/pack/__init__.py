@@ -50,6 +50,10 @@ SPLIT_GAIN = 0.01
 #: :func:`~neuraluv.layout.pack.cuts.granular_islands` halves islands holding more than this share of the total UV area.
 SPLIT_SHARE = 1 / 10
 
+#: Texels kept beyond the padding where a layout is placed exactly at it (the border of a grown packing, Blender's
+#: margin in ``bench speed --atlas``): float32 UVs written to a file may move a gap by ~1e-4 texel.
+FLOAT32_SLACK = 0.01
+
 #: name -> module of this package that defines it (imported on first use: the constants above stay cheap to
 #: import, e.g. for the command line's help).
 _WHERE = {"PackResult": "result", "shelf_pack": "shelf", "raster_pack": "raster", "tight_pack": "tight",
@@ -57,7 +61,7 @@ _WHERE = {"PackResult": "result", "shelf_pack": "shelf", "raster_pack": "raster"
 
 __all__ = ["PACKERS", "PackResult", "shelf_pack", "raster_pack", "tight_pack", "xatlas_pack", "xatlas_shape_pack",
            "granular_islands", "SPLIT_SHARE", "SPLIT_GAIN", "PACK_TRIALS", "RASTER_TRIALS", "ORDER_JITTER",
-           "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS", "START_FILL"]
+           "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS", "START_FILL", "FLOAT32_SLACK"]
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _WHERE, globals())

@@ -5,7 +5,7 @@ import numpy as np
 import shapely
 
 from neuraluv.layout.overlap import outline_rings, triangles_union
-from neuraluv.layout.pack import START_FILL
+from neuraluv.layout.pack import FLOAT32_SLACK, START_FILL
 from neuraluv.layout.pack.result import PackResult, min_gap, uv_area
 from neuraluv.layout.raster import Page, dilate, rasterise
 
@@ -295,7 +295,7 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
             if texel_density is None:  # grow up to the padding line (gaps only widen)
                 lo_c = np.min([u.min(0) for u in packed], axis=0)
                 hi_c = np.max([u.max(0) for u in packed], axis=0)
-                edge = (padding + 0.01) / resolution  # a hundredth of a texel kept for the float32 write
+                edge = (padding + FLOAT32_SLACK) / resolution  # kept for the float32 write
                 grow = float(np.min((1 - 2 * edge) / np.maximum(hi_c - lo_c, 1e-300)))
                 packed = [(u - lo_c) * grow + edge for u in packed]
                 polys = [shapely.transform(p, lambda c: (c - lo_c) * grow + edge) for p in polys]

@@ -12,6 +12,7 @@ import xatlas
 from scipy.spatial import ConvexHull, QhullError
 
 from neuraluv.jacobian import signed_areas_2d
+from neuraluv.layout.pack import FLOAT32_SLACK
 from neuraluv.layout.pack.result import PackResult, fullest, min_gap, uv_area
 from neuraluv.layout.pack.shelf import shelf_pack
 from neuraluv.layout.rigid import QUARTER_TURNS, rigid_fit
@@ -242,7 +243,7 @@ def _tight_once(uvs, faces, *, pad, resolution, brute_force, tolerance, texel_de
             if texel_density is None:  # xatlas keeps a margin of its own: grow the layout up to the padding line
                 lo_c = np.min([u.min(0) for u in packed], axis=0)
                 hi_c = np.max([u.max(0) for u in packed], axis=0)
-                edge = (pad + 0.01) / resolution  # a hundredth of a texel kept for the float32 write
+                edge = (pad + FLOAT32_SLACK) / resolution  # kept for the float32 write
                 grow = float(np.min((1 - 2 * edge) / np.maximum(hi_c - lo_c, 1e-300)))
                 if grow > 1:
                     packed = [(u - lo_c) * grow + edge for u in packed]
