@@ -119,6 +119,13 @@ def test_atlas_closed_sphere_obj_readback(tmp_path):
     assert v["islands"] == t["islands"] >= 2
     rep = json.loads(json.dumps(res.report()))
     assert {"route", "reason", "metrics", "time"} <= set(rep["charts"][0])
+    assert rep["info"]["threads"] == {"n": 1, "why": "as given"}
+
+
+def test_the_report_says_how_many_threads_auto_chose_and_why():
+    res = build_atlas(*sphere(1), **{**FAST, "threads": "auto"})
+    th = res.info["threads"]
+    assert th["n"] >= 1 and f"{th['n']} of " in th["why"] and "busy" in th["why"]
 
 
 @pytest.mark.slow
@@ -236,6 +243,33 @@ def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
     assert len(charts) >= 2 and all(c.route in ("neural", "exact") for c in charts)
     assert sorted(np.concatenate([c.faces for c in charts]).tolist()) == list(range(len(F)))
     assert all("split after: neural map overlaps itself" in c.source for c in charts)
+
+
+def test_a_neural_map_whose_boundary_crosses_itself_is_solved_on_before_it_is_split(monkeypatch):
+    """The solver's stop test sees distortion, not the boundary: routing first goes on from where it stopped."""
+    from neuraluv.atlas import routing
+    from neuraluv.solver import chart as solver_chart
+
+    real, real_solve = routing.boundary_is_simple, solver_chart.solve_charts
+    V, F = disk(n_rings=5)
+    whole, seen, starts = len(F), [], []
+
+    def fails_once(UV, Fl):  # the first map of the whole chart crosses itself, the next ones do not
+        if len(Fl) == whole:
+            seen.append(1)
+            if len(seen) == 1:
+                return False
+        return real(UV, Fl)
+
+    def solve(*a, **k):
+        starts.append(k.get("theta0"))
+        return real_solve(*a, **k)
+
+    monkeypatch.setattr(routing, "boundary_is_simple", fails_once)
+    monkeypatch.setattr(solver_chart, "solve_charts", solve)
+    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], get_config("test", iterations=20))
+    assert [c.route for c in charts] == ["neural"] and "split after" not in charts[0].source
+    assert len(starts) == 2 and starts[0] is None and starts[1] is not None and starts[1][0] is not None
 
 
 def test_merge_small_charts_keeps_disks_and_covers_once():

@@ -148,3 +148,18 @@ def test_early_stop_is_reported_per_chart():
     r = optimise(make_batch(preps), cfg, [0, 0])
     assert r.stop == [Stop.EARLY_STOP, Stop.EARLY_STOP]
     assert all(20 <= len(t["iter"]) < 300 for t in r.traces)
+
+
+def test_a_solve_goes_on_from_the_parameters_it_is_given():
+    """``theta0`` starts a chart where an earlier solve stopped (routing's second go), not at its initialisation."""
+    V, F = datasets.spherical_cap(4)
+    cfg = get_config("fast", iterations=30, early_stop=False)
+    batch = make_batch([prepare_chart(V, F, cfg)])
+    first = optimise(batch, cfg, [0])
+    again = optimise(batch, get_config("fast", iterations=1), [0], theta0=[first.theta[0]])
+    fresh = optimise(batch, get_config("fast", iterations=1), [0])
+    assert fresh.start_esd[0] == pytest.approx(first.start_esd[0])
+    assert again.start_esd[0] < first.start_esd[0] - 1e-6
+    assert again.start_esd[0] == pytest.approx(min(first.traces[0]["esd"]), rel=1e-3)
+    res = solve_charts(None, cfg, preps=[prepare_chart(V, F, cfg)], device="cpu")[0]
+    assert res.theta is not None and res.theta.shape == first.theta[0].shape

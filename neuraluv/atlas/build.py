@@ -24,7 +24,7 @@ from neuraluv.layout.rigid import rigid_fit, rotate_to_min_box, upright
 from neuraluv.layout.validate import validate_facts
 from neuraluv.meshfix import normalize_unit_box
 from neuraluv.solver.config import get_config
-from neuraluv.solver.device import resolve_device, torch_threads
+from neuraluv.solver.device import auto_threads, resolve_device, torch_threads
 from neuraluv.topology import topology_scan
 
 __all__ = ["AtlasResult", "PACKERS", "build_atlas", "repack", "stack_groups"]
@@ -192,8 +192,10 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
     time_budget : float, optional
         Seconds after which running neural solves stop with their best valid map and
         charts not yet solved become marked fallbacks.
-    threads : int, optional
-        torch CPU threads during the solves (restored afterwards).
+    threads : int or "auto", optional
+        torch CPU threads during the solves (restored afterwards); ``"auto"``:
+        :func:`~neuraluv.solver.device.auto_threads`. The report's ``info["threads"]`` says
+        how many and why.
     progress : bool
     **overrides
         SolverConfig overrides.
@@ -241,6 +243,8 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         cands = [c for c in cands if not is_copy[c[0]].any()]
     t_cand = time.perf_counter()
     deadline = None if time_budget is None else t0 + float(time_budget)
+    threads, threads_why = (auto_threads() if threads == "auto"
+                            else (threads, "as given" if threads else "torch's default"))
     with torch_threads(threads):
         charts = route_charts(Vr, Fr, cands, cfg, seed=seed, device=device, deadline=deadline, progress=progress)
     charts += _copied_charts(charts, copies, len(Fr))
@@ -264,6 +268,7 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         "timings": {"repair": t_rep - t0, "candidates": t_cand - t_rep, "routing": t_route - t_cand,
                     "packing": t_pack - t_route, "validation": time.perf_counter() - t_pack},
         "time": time.perf_counter() - t0, "device": str(resolve_device(device)), "seed": seed,
+        "threads": {"n": threads, "why": threads_why},
     }
     return AtlasResult(V=Vin[vmap], F=Fr, UV=UV, FUV=FUV, charts=charts, face_chart=face_chart,
                        face_route=face_route, validation=validation, info=info, source=vmap)

@@ -6,14 +6,17 @@
 * Every other candidate goes to the **neural solver**; all of them are solved
   together in batches (:func:`neuraluv.solver.solve_charts`), each with its
   own network, seeds and retries.
+* A neural map without flips whose boundary crosses itself (the solver's stop
+  test sees distortion, not the boundary) is **solved on** from where it stopped
+  for :data:`CONTINUE_STEPS` more validated steps before anything else.
 * A candidate whose neural map is invalid (flips, or a boundary that crosses
-  itself) becomes a **marked fallback** (PCA → Tutte + SLIM → split into
+  itself) is bisected and routed again, then becomes a **marked fallback** (PCA → Tutte + SLIM → split into
   halves → per-face), with its reason.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -36,7 +39,12 @@ TUTTE_SLIM_ITERATIONS = 20
 #: (:func:`fallback_islands`; an isometry has 4, the neural charts of our benchmarks 4–6).
 FALLBACK_MAX_ESD = 8.0
 
-__all__ = ["AtlasChart", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "tutte_slim_uv",
+#: Validated steps a flip-free neural map whose boundary crosses itself is solved on from
+#: where it stopped, once, before its chart is split (:func:`route_charts`). On the atlases of
+#: cow, spot and fertility this resolved 2 of the 3 such charts in under 1 s in all.
+CONTINUE_STEPS = 200
+
+__all__ = ["AtlasChart", "CONTINUE_STEPS", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "tutte_slim_uv",
            "fallback_islands", "route_charts", "route_chart"]
 
 
@@ -390,6 +398,7 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
     results = []
     if idx and (deadline is None or time.perf_counter() < deadline):
         results = solve_charts(None, cfg, preps=preps, seed=seed, device=device, deadline=deadline, progress=progress)
+        results = _solve_on(results, preps, [meshes[k] for k in idx], cfg, seed, device, deadline, solve_charts)
     else:
         for k in idx:
             why[k] = why.get(k, "") + "time budget exhausted before the neural solve"
@@ -402,7 +411,7 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             solver["filled_holes"] = int(len(Vx))
         uv = None if res.uv is None else res.uv[:len(vi)]  # the fillers' vertices come last: dropped
         # no flip and a simple outer boundary: injective on the filled disk, hence on the chart
-        if res.status == "neural" and boundary_is_simple(res.uv, np.vstack([Fl, Fx])):
+        if _simple(res, meshes[k]):
             out[k] = _finish(AtlasChart(fidx, "neural", "neural", "", src, [(fidx, vi, Fl, uv)], solver=solver), V, t0)
             continue
         if res.status == "neural":
@@ -422,6 +431,30 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             method, islands, reason = fallback_islands(V, F, fidx, why.get(k, "not solved"))
             out[k] = _finish(AtlasChart(fidx, "fallback", method, reason, src, islands), V, t0)
     return out, retry
+
+
+def _simple(res, mesh):
+    """A neural map whose outer boundary does not cross itself (on the chart with its holes filled)."""
+    _, Fl, _, Fx = mesh
+    return res.status == "neural" and boundary_is_simple(res.uv, np.vstack([Fl, Fx]))
+
+
+def _solve_on(results, preps, meshes, cfg, seed, device, deadline, solve_charts):
+    """Go on with the flip-free neural maps whose boundary crosses itself: :data:`CONTINUE_STEPS` more
+    steps from their last parameters (no early stop, no retry); a map that comes out simple replaces
+    the first one, any other keeps it (and is split by the caller)."""
+    again = [j for j, (r, m) in enumerate(zip(results, meshes)) if r.status == "neural" and not _simple(r, m)]
+    if not again or (deadline is not None and time.perf_counter() > deadline):
+        return results
+    go_on = replace(cfg, iterations=CONTINUE_STEPS, early_stop=False, retries=0)
+    more = solve_charts(None, go_on, preps=[preps[j] for j in again], seed=seed, device=device, deadline=deadline,
+                        theta0=[results[j].theta for j in again])
+    results = list(results)
+    for j, r in zip(again, more):
+        if _simple(r, meshes[j]):
+            r.time += results[j].time
+            results[j] = r
+    return results
 
 
 def route_chart(V, F, fidx, config="fast", *, seed=0, device="cpu", source="component", deadline=None):

@@ -104,7 +104,7 @@ def cmd_atlas(args):
              if res.info.get("cut_islands") else "")
           + f"; {res.info['time']:.1f}s"
           + (f"; input repaired: {', '.join(fixed)}" if fixed else ""))
-    _print_fallbacks(t, args)
+    _print_fallbacks(t, args, rep["info"].get("threads"))
     _print_carried(rep)
     _print_textures(rep["textures"])
     for note in rep["notes"]:
@@ -115,7 +115,7 @@ def cmd_atlas(args):
     return EXIT_OK
 
 
-def _print_fallbacks(totals, args):
+def _print_fallbacks(totals, args, threads=None):
     """One line per reason charts fell back, and what to do when the time budget was the reason."""
     reasons = totals.get("fallback_faces_by_reason") or {}
     if not reasons:
@@ -126,6 +126,8 @@ def _print_fallbacks(totals, args):
         print(f"  the --time-budget ({args.time_budget:g} s) ran out before every chart was solved (a busy "
               f"machine, or a large mesh): those charts have a valid but more distorted map; a larger "
               f"--time-budget (0: none) solves them all")
+        if threads and threads.get("n"):
+            print(f"  solved with {threads['n']} torch thread(s): {threads['why']}")
 
 
 def _print_carried(rep):

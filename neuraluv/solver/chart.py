@@ -323,12 +323,12 @@ def _result(cfg, prep, attempts, log, t_start, device):
         uv=uv, metrics=m, status=status, reason=reason, trace=trace, time=time.perf_counter() - t_start,
         seed=used_seed, attempts=len(attempts), stop=stop.label, config=cfg.as_dict(),
         network=chart_module(theta, prep.X.shape[1], cfg, base), start=start,
-        attempt_metrics=[a[0] for a in attempts], neural_uv=neural_uv, attempt_log=log,
+        attempt_metrics=[a[0] for a in attempts], neural_uv=neural_uv, attempt_log=log, theta=theta,
     )
 
 
 def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False, callback=None, labels=None,
-                 check=True, deadline=None, max_rows=60000, max_batch=512, preps=None):
+                 check=True, deadline=None, max_rows=60000, max_batch=512, preps=None, theta0=None):
     """Flatten many disk-like charts, their networks optimised together in batches.
 
     Parameters
@@ -355,6 +355,10 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
         A batch holds at most ``max_batch`` charts and ``max_rows`` padded vertex rows.
     preps : list of PreparedChart, optional
         Already prepared charts (skips :func:`prepare_chart`).
+    theta0 : list of ((P,) tensor or None), optional
+        Per chart, the parameters its first attempt starts from (a ``ChartResult.theta`` of
+        an earlier solve of the same prepared chart: the solve goes on from there); retries
+        start afresh.
 
     Returns
     -------
@@ -390,7 +394,8 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
             tb = time.perf_counter()
             batch = make_batch([preps[i] for i in idx], residual=residual, device=dev)
             res = optimise(batch, cfg, [seed + a] * len(idx), lr_scale=[0.5**a] * len(idx), callback=callback,
-                           progress=bar if len(preps) == 1 else None, deadline=deadline)
+                           progress=bar if len(preps) == 1 else None, deadline=deadline,
+                           theta0=[theta0[i] for i in idx] if (theta0 is not None and a == 0) else None)
             for k, i in enumerate(idx):
                 p = preps[i]
                 uv = res.best_uv[k, : len(p.X)] * p.scale

@@ -45,7 +45,14 @@ class SolverConfig:
     early_stop, patience, tol, early_after : stop when the best E_SD improved by
         less than ``tol`` (relative) over the last ``patience`` iterations,
         checked from ``early_after`` × the budget on (Adam's trajectories often
-        plateau early, then improve: 0.5 by default).
+        plateau early, then improve: 0.5 by default). ``fast`` (L-BFGS, whose
+        best E_SD falls steadily) checks from the first ``patience`` = 50 steps
+        on with ``tol`` = 5e-4 — the slope of its former 200 steps / 2e-3, seen
+        over a quarter of the window, so a chart that has converged stops after
+        50 steps instead of at least 200 (issue 28): on the atlases of cow, spot
+        and three generated assets 27% fewer solver rounds in all (9,307 → 6,760)
+        at the same face-weighted E_SD within 0.001 (one asset 4.051 → 4.006);
+        Hand / Bob / Camel's E_SD equal within 0.003.
     retries : extra attempts (next seed, halved learning rate) if a solve ends invalid.
     loss_rise : not in the paper's text. A step is also rejected when it raises the
         loss by more than this fraction (0 disables the guard). Algorithm 1
@@ -134,7 +141,7 @@ PRESETS = {
     "paper": SolverConfig(),
     "literal": SolverConfig(betas=(0.9, 0.999), det_drop=0.0, loss_rise=0.0, start_relax=0),
     "fast": SolverConfig(width=64, n_layers=4, omega0=60.0, optimizer="lbfgs", lr=1e-2, history=30,
-                         iterations=2000, early_stop=True, patience=200, tol=2e-3, early_after=0.1),
+                         iterations=2000, early_stop=True, patience=50, tol=5e-4, early_after=0.0),
     "test": SolverConfig(k=8, width=32, n_layers=3, iterations=60, warmup_iters=20, patience=20),
 }
 

@@ -182,7 +182,8 @@ class EngineResult:
     timing: dict                 #: seconds in forward, objective, backward, optimiser, bookkeeping
 
 
-def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, deadline=None, profile=False):
+def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, deadline=None, profile=False,
+             theta0=None):
     """Run Algorithm 1's optimisation on every chart of a batch.
 
     Parameters
@@ -202,6 +203,9 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
         ``time.perf_counter()`` value at which every chart stops (``Stop.TIME``).
     profile : bool
         Synchronise the device around each phase so ``timing`` is exact (slower on CUDA).
+    theta0 : list of ((P,) tensor or None), optional
+        Per chart, parameters to start from instead of its seed's initialisation (an
+        earlier solve's ``EngineResult.theta`` row, to continue it); residual mode only.
 
     Returns
     -------
@@ -219,7 +223,8 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
     it is still running, so a batch never keeps evaluating the networks of
     finished charts for long.
     """
-    run = _Run(batch, cfg, seeds, lr_scale=lr_scale, callback=callback, progress=progress, profile=profile)
+    run = _Run(batch, cfg, seeds, lr_scale=lr_scale, callback=callback, progress=progress, profile=profile,
+               theta0=theta0)
     while run.retire(deadline):
         run.rounds += 1
         trial = run.propose()                                    # 1. propose
@@ -272,7 +277,7 @@ class _Run:
     ``out_theta`` and ``out_stop`` at its original row.
     """
 
-    def __init__(self, batch, cfg, seeds, *, lr_scale, callback, progress, profile):
+    def __init__(self, batch, cfg, seeds, *, lr_scale, callback, progress, profile, theta0=None):
         dev = batch.X.device
         self.cfg, self.bt, self.d = cfg, batch, batch.X.shape[2]
         self.callback, self.progress = callback, progress
@@ -285,6 +290,12 @@ class _Run:
             theta = vertex.init_params(batch.B, batch.n, device=dev)
         else:
             theta = init_params(seeds, self.d, cfg, residual=batch.base is not None, device=dev)
+        if theta0 is not None:
+            if batch.base is None:
+                raise ValueError("theta0 continues a residual solve: it needs residual=True and init='tutte'")
+            for c, t in enumerate(theta0):
+                if t is not None:
+                    theta[c] = torch.as_tensor(t, dtype=theta.dtype, device=dev)
         self.timing = dict.fromkeys(("forward", "objective", "backward", "optimiser", "bookkeeping"), 0.0)
         self._sync = (lambda: torch.cuda.synchronize(dev)) if (profile and dev.type == "cuda") else (lambda: None)
         self._clock = time.perf_counter()

@@ -65,6 +65,8 @@ class ChartResult:
         neural charts; the invalid map for fallbacks).
     attempt_log : one dict per attempt: ``seed``, ``lr`` (the retry schedule
         halves it), ``stop``, ``iterations``, ``rejected``, ``valid``, ``flips``.
+    theta : (P,) tensor, the returned attempt's final parameters (``solve_charts(theta0=...)``
+        continues the solve from them).
     """
 
     uv: np.ndarray
@@ -82,6 +84,7 @@ class ChartResult:
     attempt_metrics: list = field(default_factory=list, repr=False)
     neural_uv: np.ndarray = field(default=None, repr=False)
     attempt_log: list = field(default_factory=list, repr=False)
+    theta: object = field(default=None, repr=False)
 
     @property
     def valid(self):
