@@ -134,6 +134,27 @@ def test_perturbed_order_trials_pack_at_least_as_full_and_misses_are_cheap():
     assert c.raster_scale >= 0.9 * a.raster_scale
 
 
+def test_perturbed_order_trials_stop_after_order_patience_trials_in_a_row_that_pack_no_fuller(monkeypatch):
+    """Equal squares pack the same in every order: the trials after the first settings stop early."""
+    from neuraluv.layout.pack import ORDER_PATIENCE, RASTER_TRIALS, tight as tight_mod
+
+    sq = np.array([[0., 0], [1, 0], [1, 1], [0, 1]])
+    q = np.array([[0, 1, 2], [0, 2, 3]])
+    res = tight_pack([sq] * 6, [q] * 6, padding=4, resolution=128, trials=PACK_TRIALS)
+    assert res.trials == len(RASTER_TRIALS) + ORDER_PATIENCE < PACK_TRIALS
+    # a trial that packs fuller every time keeps them going: all PACK_TRIALS run
+    real, calls = tight_mod.raster_pack, []
+
+    def fuller_each_time(*a, **k):
+        r = real(*a, **{**k, "floor": None})
+        calls.append(1)
+        r.utilisation += 0.001 * len(calls)
+        return r
+
+    monkeypatch.setattr(tight_mod, "raster_pack", fuller_each_time)
+    assert tight_pack([sq] * 6, [q] * 6, padding=4, resolution=128, trials=PACK_TRIALS).trials == PACK_TRIALS
+
+
 @pytest.mark.slow
 def test_tight_pack_fixed_density_spills_to_pages():
     uvs, fs = l_shaped_islands(20)

@@ -37,6 +37,12 @@ ORDER_JITTER = 0.5
 #: Default trials of :func:`tight_pack` (the tight packer of ``build_atlas`` and the CLI).
 PACK_TRIALS = 12
 
+#: The perturbed-order trials of :func:`tight_pack` stop after this many in a row that packed no fuller
+#: than the best so far (the trials left are not run). Measured on the islands of spot, fertility and 13
+#: generated assets (issue 28): packing time x0.58 of running all 12 trials, utilisation 0.09 points
+#: lower on average, at most 1.23 points on one asset (2 in a row: x0.46, but 0.39 lower, 3.4 at most).
+ORDER_PATIENCE = 3
+
 #: Perturbed-order trials run only up to this many islands: with many islands one order packs
 #: about as full as another (Cow, 83 islands: 12 trials no fuller than 2, packing time doubled).
 ORDER_MAX_ISLANDS = 48
@@ -60,7 +66,7 @@ _WHERE = {"PackResult": "result", "shelf_pack": "shelf", "raster_pack": "raster"
           "xatlas_pack": "xatlas_packer", "xatlas_shape_pack": "xatlas_packer", "granular_islands": "cuts"}
 
 __all__ = ["PACKERS", "PackResult", "shelf_pack", "raster_pack", "tight_pack", "xatlas_pack", "xatlas_shape_pack",
-           "granular_islands", "SPLIT_SHARE", "SPLIT_GAIN", "PACK_TRIALS", "RASTER_TRIALS", "ORDER_JITTER",
+           "granular_islands", "SPLIT_SHARE", "SPLIT_GAIN", "PACK_TRIALS", "ORDER_PATIENCE", "RASTER_TRIALS", "ORDER_JITTER",
            "ORDER_MAX_ISLANDS", "RASTER_MAX_ISLANDS", "START_FILL", "FLOAT32_SLACK"]
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from neuraluv.layout import facts
-from neuraluv.layout.pack import (ORDER_JITTER, ORDER_MAX_ISLANDS, PACK_TRIALS, RASTER_MAX_ISLANDS, RASTER_TRIALS,
-                                  SPLIT_GAIN)
+from neuraluv.layout.pack import (ORDER_JITTER, ORDER_MAX_ISLANDS, ORDER_PATIENCE, PACK_TRIALS, RASTER_MAX_ISLANDS,
+                                  RASTER_TRIALS, SPLIT_GAIN)
 from neuraluv.layout.pack.cuts import granular_islands
 from neuraluv.layout.pack.raster import island_outlines, raster_pack
 from neuraluv.layout.pack.result import uv_area
@@ -21,7 +21,8 @@ def tight_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, 
 
     The fullest of ``trials`` packings is kept: :func:`~neuraluv.layout.pack.raster.raster_pack`
     with the settings of :data:`RASTER_TRIALS`, then with the first setting and the placement
-    order perturbed (seeded, :data:`ORDER_JITTER`; up to :data:`ORDER_MAX_ISLANDS` islands);
+    order perturbed (seeded, :data:`ORDER_JITTER`; up to :data:`ORDER_MAX_ISLANDS` islands; they
+    stop after :data:`ORDER_PATIENCE` in a row that packed no fuller);
     every trial after the first searches up from the best scale so far and costs one
     placement per rule when it cannot reach it; up to :data:`RASTER_MAX_ISLANDS` islands; or xatlas's
     shape placement with (at most two) quarter-turn trials
@@ -115,8 +116,11 @@ def _best_of_trials(uvs, faces, *, padding, resolution, texel_density, trials, r
     settings = list(RASTER_TRIALS[:trials])
     if not fixed and 2 <= len(uvs) <= ORDER_MAX_ISLANDS:  # then the first setting with perturbed orders
         settings += [RASTER_TRIALS[0]] * (trials - len(settings))
+    stale = 0  # perturbed trials in a row that packed no fuller (ORDER_PATIENCE ends them)
     for k, (grid, angles) in enumerate(settings):
         w = None if k < len(RASTER_TRIALS) else np.exp(np.random.default_rng(k).normal(0.0, ORDER_JITTER, len(uvs)))
+        if w is not None and stale >= ORDER_PATIENCE:
+            break
         low = floor if best is None else best.raster_scale
         n += 1
         try:
@@ -124,9 +128,12 @@ def _best_of_trials(uvs, faces, *, padding, resolution, texel_density, trials, r
                             floor=None if fixed else low, **kw)
         except ValueError as exc:  # not as dense as the best (a cheap miss), or nothing fits
             err = exc
+            stale += w is not None
             continue
         if best is None or (-r.n_pages, r.utilisation) > (-best.n_pages, best.utilisation):
-            best = r
+            best, stale = r, 0
+        else:
+            stale += w is not None
     if best is None:
         if floor is not None:
             return None
