@@ -1,8 +1,8 @@
 """``neuraluv bench speed --atlas``: ``neuraluv atlas`` with its defaults, one process per asset, timed end to end,
 per stage (from the command's own report), beside xatlas's own atlas and Blender's (Smart UV Project + Pack Islands,
 :mod:`~neuraluv_paper.bench.pack_reference`) of the same mesh in the same run, one asset run as two concurrent
-processes (the busy-machine case), and the islands of our atlas of each real mesh packed afresh by our, xatlas's and
-Blender's packers."""
+processes (the busy-machine case), the islands of our atlas of each real mesh packed afresh by our, xatlas's and
+Blender's packers, and ``neuraluv unwrap`` of Camel beside libigl SLIM-1k."""
 from __future__ import annotations
 
 import inspect
@@ -84,6 +84,8 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
     one line says why where Blender is missing). With ``packers``, the islands of
     our atlas of each registry mesh are packed again by ours, xatlas's and
     Blender's packers (:func:`~neuraluv_paper.bench.pack_reference.packer_reference`).
+    Unless ``quick``, one more line: ``neuraluv unwrap`` of the paper's Camel chart,
+    whole process, beside libigl SLIM-1k in process (issue 28's unwrap target).
     """
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
@@ -138,8 +140,11 @@ def atlas_timing(meshes=None, n_generated=50, *, output="results/speed", quick=F
                 print(f"atlas {name:16s} {row.get('faces', 0):7d} faces {wall:7.1f}s ok={row.get('ok')} "
                       f"flips={row.get('flips')} overlaps={row.get('overlaps')} peak {row['peak_rss_mb']:.0f} MB", flush=True)
         concurrent = _concurrent(inputs[0], tmp, extra, rows[0]) if inputs else None
-    md = _markdown(rows, concurrent, packed)
+        unwrap = None if quick else _unwrap(tmp, extra)
+    md = _markdown(rows, concurrent, packed) + ("\n\n" + _unwrap_line(unwrap) if unwrap else "")
     cmd = command_line("speed") if argv is None else "neuraluv " + " ".join(argv)
+    if unwrap:
+        rows.append({"asset": "camel unwrap", "kind": "unwrap", **unwrap})
     if concurrent:
         rows.append({"asset": f"{concurrent['asset']} x2 concurrent", "kind": "concurrent",
                      "wall_s": max(concurrent["walls"]), "ok": all(concurrent["ok"]), "alone_s": concurrent["alone"]})
@@ -252,6 +257,34 @@ def blender_markdown(rows):
             "(UV area over the texture), flips and overlaps are measured on each layout read back, as our command "
             "measures its own:", "", markdown_table(head, body), "",
             *([f"Blender not run on {len(down)} of {len(runs)} assets — {'; '.join(why)}", ""] if down else [])]
+
+
+def _unwrap(tmp, extra):
+    """``neuraluv unwrap`` of the paper's Camel chart, whole process, beside libigl SLIM-1k in process (same run)."""
+    from neuraluv_paper.baselines.libigl import slim
+
+    V, F = datasets.load_charts("camel", largest=True)[0]
+    path = tmp / "camel_chart.obj"
+    write_obj(path, V, F, np.zeros((len(V), 2)))
+    rep = tmp / "camel_unwrap.json"
+    t = time.perf_counter()
+    pr = subprocess.run([sys.executable, "-m", "neuraluv", "unwrap", str(path), "-o", str(tmp / "camel_unwrap.obj"),
+                         "--report", str(rep), "--quiet", *extra], capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    t = time.perf_counter()
+    slim(V, F, iterations=1000)
+    slim_s = time.perf_counter() - t
+    r = json.loads(rep.read_text()) if rep.exists() else {}
+    solve = sum(c.get("time", 0.0) for c in r.get("charts", [])) if r else float("nan")
+    return {"faces": int(len(F)), "exit": pr.returncode, "wall_s": wall, "solve_s": solve, "slim_1k_s": slim_s,
+            "ok": pr.returncode == 0}
+
+
+def _unwrap_line(u):
+    return (f"**Unwrap** (the paper's Camel chart, {u['faces']:,} faces): `neuraluv unwrap` with defaults, whole "
+            f"process {u['wall_s']:.1f} s (its charts' solve {u['solve_s']:.1f} s, from its report) against libigl "
+            f"SLIM-1k in process {u['slim_1k_s']:.1f} s in the same run: ×{u['wall_s'] / u['slim_1k_s']:.2f} "
+            f"(exit {u['exit']}).")
 
 
 def _concurrent(inp, tmp, extra, alone):
