@@ -1,7 +1,7 @@
 """Added damage on texture layouts that the authored-asset bench left unfixed (issue 27), as small procedural cases.
 
 Each test is the smallest layout with the cause found on a real asset: a vertex flung across a small island
-(tube.obj, vertex noise), ...
+(tube.obj, vertex noise), a fold on the rows two mirrored halves share (Blender's mirrored Suzanne).
 """
 import numpy as np
 
@@ -35,3 +35,32 @@ def test_a_vertex_flung_across_a_small_island_is_a_fold_not_a_mirrored_island():
     res = repair_layout(V, F, bad, F, purpose="texture", device="cpu")
     assert res.after.validation["valid"]
     assert res.changed_faces.sum() <= 3  # the flung vertex's faces only
+
+
+def twin_halves(n=4, rows=4):
+    """A mirror modifier's halves sharing their UVs: the right half an ``n`` × ``rows`` grid at ``x >= 0``, the
+    left half its mirror image (winding reversed, merged at ``x = 0``), every face using its mirror face's
+    ``vt`` rows. Returns ``V, F, UV, FUV``."""
+    V, FR = grid(n, rows)
+    P = V[:, :2]
+    right = np.flatnonzero(P[:, 0] > 0)
+    left_of = np.arange(len(P))
+    left_of[right] = len(P) + np.arange(len(right))
+    V2 = np.r_[P, P[right] * [-1, 1]]
+    return np.c_[V2, 0.2 * np.cos(V2[:, 0])], np.r_[FR, left_of[FR][:, ::-1]], P / 10 + 0.1, np.r_[FR, FR[:, ::-1]]
+
+
+def test_a_fold_on_rows_twin_halves_share_is_repaired_in_both_halves_at_once():
+    # a row both halves use pushed over its neighbours folds both: each half's folded faces lie, by orientation,
+    # in the other half's sheet, where they are not reversed but lie over their neighbours, and every row is
+    # shared with the other half (locked). Repaired in the half's own layer (joined in 3D and in UV), the
+    # twins follow: valid, and the halves still share every row.
+    V, F, UV, FUV = twin_halves()
+    assert not layout_intent(layout_facts(V, F, UV, FUV)).fold.any()
+    bad = UV.copy()
+    bad[12] += [0.15, 0.03]
+    assert layout_intent(layout_facts(V, F, bad, FUV)).fold.sum() == 12
+    res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+    assert len(res.UV) == len(UV) and np.array_equal(res.FUV, FUV)  # no row split off: still twins
+    assert res.changed_rows.sum() <= 4
