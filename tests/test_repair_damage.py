@@ -1,12 +1,15 @@
 """Added damage on texture layouts that the authored-asset bench left unfixed (issue 27), as small procedural cases.
 
 Each test is the smallest layout with the cause found on a real asset: a vertex flung across a small island
-(tube.obj, vertex noise), a fold on the rows two mirrored halves share (Blender's mirrored Suzanne).
+(tube.obj, vertex noise), a fold on the rows two mirrored halves share (Blender's mirrored Suzanne), folds
+next to the pole of a latitude-longitude map (capsule.obj, vertex noise).
 """
 import numpy as np
 
 from neuraluv.layout.facts import layout_facts
 from neuraluv.layout.purpose import layout_intent
+from neuraluv.layout.facts import face_clusters
+from neuraluv.repair.local import with_stretched_neighbours
 from neuraluv.repair.repair import repair_layout
 
 
@@ -64,3 +67,49 @@ def test_a_fold_on_rows_twin_halves_share_is_repaired_in_both_halves_at_once():
     assert res.after.validation["valid"]
     assert len(res.UV) == len(UV) and np.array_equal(res.FUV, FUV)  # no row split off: still twins
     assert res.changed_rows.sum() <= 4
+
+
+def pole_cap(nu=16, nv=6):
+    """A latitude-longitude map of a spherical cap: an ``nu`` × ``nv`` quad grid in UV (4:1), its top row of
+    vertices all at the pole in 3D, each with its own ``vt`` row, so each top quad is one stretched triangle
+    and one without 3D area. Returns ``V, F, UV, FUV``."""
+    gu, gv = np.meshgrid(np.arange(nu + 1.0), np.arange(nv + 1.0))
+    _, FUV = grid(nu, nv)
+    th, ph = 2 * np.pi * gu.ravel() / nu, 0.5 * np.pi * gv.ravel() / nv
+    P = np.c_[np.cos(th) * np.cos(ph), np.sin(th) * np.cos(ph), np.sin(ph)]
+    P[gv.ravel() == nv] = [0, 0, 1]
+    V, vid = np.unique(P.round(12), axis=0, return_inverse=True)
+    return V, vid.reshape(-1)[FUV], np.c_[0.8 * gu.ravel() / nu, 0.2 * gv.ravel() / nv] + 0.05, FUV
+
+
+def test_folds_along_a_pole_stay_apart_and_are_repaired_in_place():
+    # the rows around a pole are stretched on purpose; a fold's stretched neighbours joined through them made
+    # every fold along the pole one cluster (hundreds of faces on capsule.obj, slow, then left folded). Only
+    # stretched faces within two rings of a fold join it now.
+    nu, nv = 24, 24
+    V, F, UV, FUV = pole_cap(nu, nv)
+    bad = UV.copy()
+    for c in (3, 11, 19):
+        bad[c + (nu + 1) * (nv - 2)] += [0.03, -0.002]
+    f = layout_facts(V, F, bad, FUV)
+    folds = np.flatnonzero(layout_intent(f).fold)
+    assert len(folds) == 3
+    grown = with_stretched_neighbours(f.Vn, F, bad, FUV, np.flatnonzero(~f.degenerate3d), folds)
+    assert len(face_clusters(FUV, grown)) == 3
+    res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+
+
+def test_a_fold_on_a_row_shared_with_faces_without_3d_area_is_repaired_without_splitting_rows():
+    # the row next to the pole is shared with a face without 3D area (no map to keep): the fold's own faces
+    # may move it; it was locked like another shell's row, and the fold repaired on split-off copies
+    nu, nv = 16, 6
+    V, F, UV, FUV = pole_cap(nu, nv)
+    bad = UV.copy()
+    r = 5 + (nu + 1) * (nv - 1)
+    bad[r] += [0.06, 0.02]
+    f = layout_facts(V, F, bad, FUV)
+    assert layout_intent(f).fold.any() and f.degenerate3d[(FUV == r).any(1)].any()
+    res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+    assert len(res.UV) == len(UV)  # no row split off

@@ -427,13 +427,15 @@ def self_overlap_faces(UV, FUV, island, det, subset=None):
     return np.unique(np.concatenate([a, b]))
 
 
-def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
+def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0, rings=2):
     """``targets`` plus the severely stretched faces joined to them: a fold's damage beyond its flipped faces.
 
     A face is severely stretched when its conformal distortion σ_max/σ_min (scale-free, so a conformal map's
     shrunken parts do not count) is above ``factor`` and above ``factor`` times the island's median. Only
-    such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a stretched
-    face elsewhere is the layout's own and stays untouched.
+    such faces within ``rings`` rings (of ``vt`` rows) of a target and connected (through shared ``vt``
+    rows, via other such faces) to one are added; a stretched face elsewhere is the layout's own and stays
+    untouched. The ring bound keeps a band the layout stretches on purpose (the rows around a pole of a
+    latitude-longitude map) from joining every fold along it into one cluster.
     """
     ok = np.setdiff1d(island, targets)
     if not len(ok):
@@ -442,7 +444,12 @@ def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
     fin = conf[np.isfinite(conf)]
     if not len(fin):
         return targets
-    stretched = ok[conf > factor * max(1.0, float(np.median(fin)))]
+    graph = IslandGraph(FUV, island, len(UV))
+    near = np.zeros(len(UV), bool)
+    near[np.unique(FUV[targets])] = True
+    for _ in range(rings):
+        near = graph.grow(near)
+    stretched = ok[(conf > factor * max(1.0, float(np.median(fin)))) & near[FUV[ok]].all(1)]
     if not len(stretched):
         return targets
     cand = np.concatenate([targets, stretched])

@@ -60,6 +60,12 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         outside = np.setdiff1d(facts.island_faces(i), shell, assume_unique=True)
         locked = np.zeros(len(UVw), bool)
         locked[np.unique(FUVw[outside])] = True
+        # rows only faces without 3D area share with the shell: no map of theirs to keep, but they hold the UVs
+        # around them in shape (a pole's fan); a fold's own faces may move theirs
+        flat = outside[facts.degenerate3d[outside]]
+        held = np.zeros(len(UVw), bool)
+        held[np.unique(FUVw[flat])] = True
+        held[np.unique(FUVw[np.setdiff1d(outside, flat)])] = False
         flip = it.shell_sign[k] < 0
         sgn = np.array([-1.0, 1.0]) if flip else np.ones(2)  # work * sgn: the layout as it is
         work = UVw * sgn if flip else UVw
@@ -74,7 +80,10 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             if np.isin(cl, twin_done).all() and twin_layers_hold(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl):
                 continue  # the twins of a fold repaired in its layers (the other half's shell)
             kw = dict(config=cfg, seed=seed, device=device, deadline=deadline, neural=neural, allowed=allowed)
-            out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
+            own = np.zeros(len(work), bool)
+            own[np.unique(FUVw[cl[bad[cl]]])] = True
+            g = IslandGraph(FUVw, shell, len(work), locked=locked & ~(held & own)) if (held & own).any() else graph
+            out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, **kw)
             if out is None and locked[np.unique(FUVw[cl])].any():  # a fold of twin halves that share their rows
                 out, info = repair_twin_layers(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl, dens, **kw)
                 if out is not None:
@@ -90,6 +99,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 FUVw = FUVw.copy()
                 FUVw[shell] = sub
                 locked = np.r_[locked, np.zeros(len(split), bool)]
+                held = np.r_[held, np.zeros(len(split), bool)]
                 graph = IslandGraph(FUVw, shell, len(work), locked=locked)
                 out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
                 if out is not None:
