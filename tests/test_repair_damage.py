@@ -2,7 +2,8 @@
 
 Each test is the smallest layout with the cause found on a real asset: a vertex flung across a small island
 (tube.obj, vertex noise), a fold on the rows two mirrored halves share (Blender's mirrored Suzanne), folds
-next to the pole of a latitude-longitude map (capsule.obj, vertex noise).
+next to the pole of a latitude-longitude map (capsule.obj, vertex noise), a NaN on a palette's point (chair_model.obj,
+NaN UVs).
 """
 import numpy as np
 
@@ -113,3 +114,18 @@ def test_a_fold_on_a_row_shared_with_faces_without_3d_area_is_repaired_without_s
     res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
     assert res.after.validation["valid"]
     assert len(res.UV) == len(UV)  # no row split off
+
+
+def test_faces_of_a_palette_point_that_became_nan_get_a_point_not_charts():
+    # faces whose three corners use one vt row are a point whatever its value (one flat colour's texel); when
+    # that row is NaN they were charted like faces that never had UVs (thousands of charts on chair_model.obj)
+    V, F = grid(6, 4)
+    UV = V[:, :2] / 10 + 0.05
+    FUV = F.copy()
+    pal = np.arange(24, 48)  # the upper half: all on one row
+    FUV[pal] = len(UV)
+    UV = np.vstack([UV, [[np.nan, np.nan]]])
+    res = repair_layout(V, F, UV, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"] and res.after.validation["palette_faces"] == len(pal)
+    assert [(c["route"], c["faces"]) for c in res.new_charts] == [("point", len(pal))]
+    assert (res.FUV[pal] == res.FUV[pal[0], 0]).all() and np.isfinite(res.UV[res.FUV[pal[0], 0]]).all()
