@@ -432,10 +432,11 @@ def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0, ri
 
     A face is severely stretched when its conformal distortion σ_max/σ_min (scale-free, so a conformal map's
     shrunken parts do not count) is above ``factor`` and above ``factor`` times the island's median. Only
-    such faces within ``rings`` rings (of ``vt`` rows) of a target and connected (through shared ``vt``
-    rows, via other such faces) to one are added; a stretched face elsewhere is the layout's own and stays
-    untouched. The ring bound keeps a band the layout stretches on purpose (the rows around a pole of a
-    latitude-longitude map) from joining every fold along it into one cluster.
+    such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a
+    stretched face elsewhere is the layout's own and stays untouched. Where such faces would join several
+    folds into one cluster, only those within ``rings`` rings (of ``vt`` rows) of a target are added: a band
+    the layout stretches on purpose (the rows around a pole of a latitude-longitude map) does not make every
+    fold along it one cluster.
     """
     ok = np.setdiff1d(island, targets)
     if not len(ok):
@@ -444,16 +445,24 @@ def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0, ri
     fin = conf[np.isfinite(conf)]
     if not len(fin):
         return targets
-    graph = IslandGraph(FUV, island, len(UV))
-    near = np.zeros(len(UV), bool)
-    near[np.unique(FUV[targets])] = True
-    for _ in range(rings):
-        near = graph.grow(near)
-    stretched = ok[(conf > factor * max(1.0, float(np.median(fin)))) & near[FUV[ok]].all(1)]
+    stretched = ok[conf > factor * max(1.0, float(np.median(fin)))]
     if not len(stretched):
         return targets
-    cand = np.concatenate([targets, stretched])
-    keep = [c for c in face_clusters(FUV, cand) if np.isin(c, targets).any()]
+    own = np.zeros(len(F), np.int64)
+    for n, c in enumerate(face_clusters(FUV, targets)):
+        own[c] = n
+    keep, near = [], None
+    for c in face_clusters(FUV, np.concatenate([targets, stretched])):
+        t = c[np.isin(c, targets)]
+        if len(np.unique(own[t])) > 1:  # several folds joined through stretched faces: only those near one
+            if near is None:
+                graph = IslandGraph(FUV, island, len(UV))
+                near = np.zeros(len(UV), bool)
+                near[np.unique(FUV[targets])] = True
+                for _ in range(rings):
+                    near = graph.grow(near)
+            c = np.union1d(t, c[near[FUV[c]].all(1)])
+        keep.append(c[:0] if not len(t) else c)
     return np.unique(np.concatenate(keep))
 
 
