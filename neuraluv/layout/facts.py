@@ -11,7 +11,10 @@ carried in a :class:`LayoutFacts`:
   normalised to the unit box; a face with no 3D area (``degenerate3d``) has no
   distortion and is neither valid nor invalid;
 * an island is **mirrored** when its faces with reversed orientation cover more
-  UV area than the others (the island was reflected as a whole, not folded);
+  UV area than the others (the island was reflected as a whole, not folded), unless
+  one orientation covers more than :data:`SURFACE_FACTOR` times the other's 3D area:
+  then that one (:func:`holds_more`; a vertex flung across a small island makes one
+  stretched, reversed face that covers more UV area than the faces it folds over);
 * the **texel density** of an island (:func:`texel_density`) is
   ``sqrt(Σ |A_uv| / Σ A_3d)`` over its faces oriented like the island.
 """
@@ -29,10 +32,41 @@ from neuraluv.topology import faces_sharing
 
 __all__ = ["LayoutFacts", "layout_facts", "uv_islands", "face_clusters", "texel_density", "island_densities",
            "face_texel_density",
-           "density_spread", "DEGENERATE_3D_AREA", "defect_area"]
+           "density_spread", "DEGENERATE_3D_AREA", "defect_area", "SURFACE_FACTOR", "holds_more"]
 
 #: Faces of the unit-box mesh with less 3D area than this have no distortion (their UVs are left alone).
 DEGENERATE_3D_AREA = 1e-14
+
+
+#: One part of a layout (an orientation of an island, a sheet) holding more than this multiple of another's 3D area
+#: holds more of the surface whatever their UV areas say (:func:`holds_more`).
+SURFACE_FACTOR = 2.0
+
+
+def holds_more(uv_a, uv_b, a3_a, a3_b, factor=SURFACE_FACTOR):
+    """Whether part ``a`` of a layout holds more of it than part ``b``: the larger UV area, unless one part has
+    more than ``factor`` times the other's 3D area (then the larger 3D area).
+
+    UV area alone is what damage can fake: a vertex flung across a small island makes one stretched face
+    that covers more UV area than the faces it folds over; its 3D area is what it was.
+
+    Parameters
+    ----------
+    uv_a, uv_b, a3_a, a3_b : float or (k,) float arrays
+        UV areas and 3D areas of the two parts.
+    factor : float
+
+    Returns
+    -------
+    bool or (k,) bool array
+
+    Examples
+    --------
+    >>> holds_more(2.0, 1.0, 1.0, 1.5).tolist(), holds_more(2.0, 1.0, 1.0, 3.0).tolist()
+    (True, False)
+    """
+    uv_a, uv_b, a3_a, a3_b = (np.asarray(x, float) for x in (uv_a, uv_b, a3_a, a3_b))
+    return np.where(a3_a > factor * a3_b, True, np.where(a3_b > factor * a3_a, False, uv_a > uv_b))
 
 
 def uv_islands(FUV):
@@ -72,12 +106,14 @@ def face_clusters(FUV, faces):
 
 
 def _density(signed, a3, label, n, count=None):
-    """Per group: mirrored (reversed faces hold more UV area) and ``sqrt(Σ|A_uv| / ΣA_3d)`` over the
-    faces oriented like the group (and in ``count``); NaN where no face counts."""
+    """Per group: mirrored (reversed faces hold more of it, :func:`holds_more`) and ``sqrt(Σ|A_uv| / ΣA_3d)``
+    over the faces oriented like the group (and in ``count``); NaN where no face counts."""
     s = np.nan_to_num(np.asarray(signed, float), nan=0.0, posinf=0.0, neginf=0.0)
     pos = np.bincount(label, weights=np.where(s > 0, s, 0.0), minlength=n)
     neg = np.bincount(label, weights=np.where(s < 0, -s, 0.0), minlength=n)
-    mirrored = neg > pos
+    pos3 = np.bincount(label, weights=np.where(s > 0, a3, 0.0), minlength=n)
+    neg3 = np.bincount(label, weights=np.where(s < 0, a3, 0.0), minlength=n)
+    mirrored = holds_more(neg, pos, neg3, pos3)
     ok = (a3 > 0) if count is None else (count & (a3 > 0))
     like = ok & np.where(mirrored[label], s < 0, s > 0)
     a2 = np.bincount(label[like], weights=np.abs(s[like]), minlength=n)

@@ -190,8 +190,12 @@ def overlap_pairs(UV, FUV, faces, subset=None, *, areas=False):
         a, b = candidate_pairs(tri)
     else:
         sub = np.flatnonzero(np.isin(faces, subset))
-        a, b = candidate_pairs(tri[sub], tri)
-        a = sub[a]
+        # only the faces whose boxes meet the subset's box are searched (a small region of a large island)
+        lo, hi = tri.min(1), tri.max(1)
+        near = np.flatnonzero((hi >= lo[sub].min(0)).all(1) & (lo <= hi[sub].max(0)).all(1)) if len(sub) \
+            else np.zeros(0, np.int64)
+        a, b = candidate_pairs(tri[sub], tri[near])
+        a, b = sub[a], near[b]
         keep = a != b
         lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
         both = np.unique(np.stack([lo, hi], 1), axis=0) if len(lo) else np.zeros((0, 2), np.int64)

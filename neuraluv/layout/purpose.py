@@ -28,7 +28,8 @@ Definitions (on the unit-box mesh):
   reversed in a mirrored island) is its main **shell**. Another sheet is a shell
   of its own when it shares no ``vt`` edge with a sheet of the other orientation
   (a piece joined at single vertices), when it is larger than every such
-  neighbour (they are the folds), or when it is a **stacked copy** of the other
+  neighbour (they are the folds; larger by UV area, unless the 3D areas differ by more
+  than :data:`~neuraluv.layout.facts.SURFACE_FACTOR`), or when it is a **stacked copy** of the other
   orientation: at least :data:`STACKED_SHARE` of its UV area lies on faces of the
   other orientation at exactly the same three UV positions (a mirror modifier's
   copy), or it is a region (an interior ``vt`` row) mapped as regularly as the
@@ -60,6 +61,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from neuraluv.layout import PURPOSES
+from neuraluv.layout.facts import holds_more
 from neuraluv.layout.overlap import overlap_pairs, points_in_triangles
 from neuraluv.topology import faces_sharing, undirected_edges
 
@@ -264,9 +266,11 @@ def layout_intent(facts, *, stacked_share=STACKED_SHARE):
     s_edge[na] = True
     # the largest sheet of the other orientation each sheet shares an edge with: a sheet larger than every
     # such neighbour is a part of its own (they are the folds), whatever its orientation
-    s_next = np.zeros(n_sheets)
-    np.maximum.at(s_next, na, s_area[nb])
-    dominant = s_area > s_next
+    # (by UV area, unless the 3D areas differ by more than SURFACE_FACTOR: a flung vertex's stretched face is
+    # no part of its own)
+    s_area3 = np.bincount(s_lab, weights=facts.area3d[idx], minlength=n_sheets)
+    dominant = s_area > 0
+    dominant[na[~holds_more(s_area[na], s_area[nb], s_area3[na], s_area3[nb])]] = False
     twin_area = np.bincount(s_lab, weights=np.where(_twins(facts.UV, facts.FUV, idx, cls[idx], facts.label[idx]),
                                                     np.abs(np.nan_to_num(facts.signed_uv[idx])), 0.0),
                             minlength=n_sheets)

@@ -427,13 +427,16 @@ def self_overlap_faces(UV, FUV, island, det, subset=None):
     return np.unique(np.concatenate([a, b]))
 
 
-def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
+def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0, rings=2):
     """``targets`` plus the severely stretched faces joined to them: a fold's damage beyond its flipped faces.
 
     A face is severely stretched when its conformal distortion σ_max/σ_min (scale-free, so a conformal map's
     shrunken parts do not count) is above ``factor`` and above ``factor`` times the island's median. Only
-    such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a stretched
-    face elsewhere is the layout's own and stays untouched.
+    such faces connected (through shared ``vt`` rows, via other such faces) to a target are added; a
+    stretched face elsewhere is the layout's own and stays untouched. Where such faces would join several
+    folds into one cluster, only those within ``rings`` rings (of ``vt`` rows) of a target are added: a band
+    the layout stretches on purpose (the rows around a pole of a latitude-longitude map) does not make every
+    fold along it one cluster.
     """
     ok = np.setdiff1d(island, targets)
     if not len(ok):
@@ -445,8 +448,21 @@ def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0):
     stretched = ok[conf > factor * max(1.0, float(np.median(fin)))]
     if not len(stretched):
         return targets
-    cand = np.concatenate([targets, stretched])
-    keep = [c for c in face_clusters(FUV, cand) if np.isin(c, targets).any()]
+    own = np.zeros(len(F), np.int64)
+    for n, c in enumerate(face_clusters(FUV, targets)):
+        own[c] = n
+    keep, near = [], None
+    for c in face_clusters(FUV, np.concatenate([targets, stretched])):
+        t = c[np.isin(c, targets)]
+        if len(np.unique(own[t])) > 1:  # several folds joined through stretched faces: only those near one
+            if near is None:
+                graph = IslandGraph(FUV, island, len(UV))
+                near = np.zeros(len(UV), bool)
+                near[np.unique(FUV[targets])] = True
+                for _ in range(rings):
+                    near = graph.grow(near)
+            c = np.union1d(t, c[near[FUV[c]].all(1)])
+        keep.append(c[:0] if not len(t) else c)
     return np.unique(np.concatenate(keep))
 
 

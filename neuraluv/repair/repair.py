@@ -395,15 +395,22 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
     """Charts for the faces ``lost`` (no usable UVs), solved by the atlas router, appended as new rows.
 
     Lost faces without 3D area have no map to solve: their three corners get one new row (a point: no UV
-    area, so no overlap), as ``check --uv`` leaves such faces' UVs alone.
+    area, so no overlap), as ``check --uv`` leaves such faces' UVs alone. So do lost faces whose three
+    corners used one ``vt`` row (a point whatever its value: a palette collapse, e.g. one flat colour's
+    faces on one texel), one new row per such row: they stay a point, not thousands of charts.
     """
-    flat = face_areas(Vn, F[lost]) <= DEGENERATE_3D_AREA
     UV, FUV = np.asarray(UV, float), np.asarray(FUV, np.int64).copy()
     out0 = []
-    if flat.any():
-        UV = np.vstack([UV, [[0.0, 0.0]]])
-        FUV[lost[flat]] = len(UV) - 1
-        out0.append({"faces": int(flat.sum()), "route": "point", "method": "no 3D area", "reason": "nothing to map"})
+    for why, flat in (("no 3D area", face_areas(Vn, F[lost]) <= DEGENERATE_3D_AREA),
+                      ("one vt row", (FUV[lost] == FUV[lost][:, :1]).all(1) & (FUV[lost][:, 0] >= 0))):
+        if not flat.any():
+            continue
+        _, point = np.unique(FUV[lost[flat], 0] if why == "one vt row" else np.zeros(int(flat.sum()), np.int64),
+                             return_inverse=True)
+        FUV[lost[flat]] = (len(UV) + point.reshape(-1))[:, None]
+        UV = np.vstack([UV, np.zeros((int(point.max()) + 1, 2))])
+        out0.append({"faces": int(flat.sum()), "route": "point", "method": why,
+                     "reason": "nothing to map" if why == "no 3D area" else "a point in the input (a palette)"})
         lost = lost[~flat]
         if not len(lost):
             return UV, FUV, out0

@@ -8,10 +8,14 @@ same local escalation as a bake layout's folds (:func:`~neuraluv.repair.local.re
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
-from neuraluv.layout.facts import face_clusters
+from neuraluv.jacobian import signed_areas_2d
+from neuraluv.layout.facts import face_clusters, holds_more
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent
+from neuraluv.meshfix import face_areas
 from neuraluv.repair.local import (
     IslandGraph,
     face_dets_of,
@@ -22,13 +26,16 @@ from neuraluv.repair.local import (
     with_stretched_neighbours,
 )
 from neuraluv.repair.untangle import budget_spent
+from neuraluv.topology import undirected_edges
 
-__all__ = ["repair_shells", "intended_overlaps"]
+__all__ = ["repair_shells", "intended_overlaps", "twin_layers", "repair_twin_layers", "layer_sign", "twin_layers_hold"]
 
 
 def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural):
     """Steps 1-3 under the ``texture`` purpose: each shell's folds and UV-degenerate faces repaired locally, in
     the shell's own orientation, with the rows it shares with other shells of its island locked.
+    A fold on rows that two stacked halves share (twin faces) is repaired in its half's layer
+    (:func:`repair_twin_layers`): the twins follow, mirrored.
 
     A reversed shell is repaired on the layout negated in ``u`` (exact), then negated back, so every row
     the repair does not free is bit-identical. Pairs of the shell's faces that overlapped on purpose may
@@ -42,6 +49,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     """
     it = layout_intent(facts)
     bad = it.fold | it.degenerate
+    twin_done = np.zeros(0, np.int64)  # faces of folds repaired in twin layers, and their twins
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
         i = int(it.shell_island[k])
@@ -52,8 +60,15 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         outside = np.setdiff1d(facts.island_faces(i), shell, assume_unique=True)
         locked = np.zeros(len(UVw), bool)
         locked[np.unique(FUVw[outside])] = True
+        # rows only faces without 3D area share with the shell: no map of theirs to keep, but they hold the UVs
+        # around them in shape (a pole's fan); a fold's own faces may move theirs
+        flat = outside[facts.degenerate3d[outside]]
+        held = np.zeros(len(UVw), bool)
+        held[np.unique(FUVw[flat])] = True
+        held[np.unique(FUVw[np.setdiff1d(outside, flat)])] = False
         flip = it.shell_sign[k] < 0
-        work = UVw * np.array([-1.0, 1.0]) if flip else UVw
+        sgn = np.array([-1.0, 1.0]) if flip else np.ones(2)  # work * sgn: the layout as it is
+        work = UVw * sgn if flip else UVw
         dens = facts.density[i] if np.isfinite(facts.density[i]) else med
         targets = shell[bad[shell]]
         graph = IslandGraph(FUVw, shell, len(work), locked=locked)
@@ -62,8 +77,18 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         for cl in face_clusters(FUVw, targets):
             if (face_dets_of(Vn, F, work, FUVw, cl) > 0).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
                 continue  # fixed by an earlier cluster's region
+            if np.isin(cl, twin_done).all() and twin_layers_hold(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl):
+                continue  # the twins of a fold repaired in its layers (the other half's shell)
             kw = dict(config=cfg, seed=seed, device=device, deadline=deadline, neural=neural, allowed=allowed)
-            out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
+            own = np.zeros(len(work), bool)
+            own[np.unique(FUVw[cl[bad[cl]]])] = True
+            g = IslandGraph(FUVw, shell, len(work), locked=locked & ~(held & own)) if (held & own).any() else graph
+            out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, **kw)
+            if out is None and locked[np.unique(FUVw[cl])].any():  # a fold of twin halves that share their rows
+                out, info = repair_twin_layers(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl, dens, **kw)
+                if out is not None:
+                    out = out * sgn
+                    twin_done = np.union1d(twin_done, info["faces"])
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
             if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
                 new = len(work) + np.arange(len(split))
@@ -74,6 +99,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 FUVw = FUVw.copy()
                 FUVw[shell] = sub
                 locked = np.r_[locked, np.zeros(len(split), bool)]
+                held = np.r_[held, np.zeros(len(split), bool)]
                 graph = IslandGraph(FUVw, shell, len(work), locked=locked)
                 out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
                 if out is not None:
@@ -126,3 +152,124 @@ def intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
             near = graph.grow(near)
         keep[n] = not near[FUV[j]].any()
     return set(zip(lo[keep].tolist(), hi[keep].tolist()))
+
+
+def twin_layers(F, FUV, faces):
+    """The layers of an island whose stacked halves share ``vt`` rows: its faces joined through edges shared in
+    3D *and* in UV, never a face to its twin (a face with the same three ``vt`` rows).
+
+    A mirror modifier's halves that share their rows are one island, and a fold on the shared rows folds both
+    halves at once: each half's folded faces then lie, by orientation, in the other half's sheet. A half is
+    still what the surface joins: its faces meet along 3D edges, and where the halves meet (the mirror plane)
+    the face across the edge is the twin.
+
+    Parameters
+    ----------
+    F, FUV : (m,3) int arrays
+    faces : (k,) int array, the island's faces
+
+    Returns
+    -------
+    layer : (k,) int array, the layer of each face of ``faces``
+    twin : (k,) int array, per face the index (into ``faces``) of a twin, -1 where none
+    """
+    faces = np.asarray(faces, np.int64)
+    k = len(faces)
+    T = np.sort(np.asarray(FUV)[faces], 1)
+    _, group = np.unique(T, axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    twin = -np.ones(k, np.int64)
+    order = np.argsort(group, kind="stable")
+    pair = group[order[1:]] == group[order[:-1]]
+    twin[order[1:][pair]], twin[order[:-1][pair]] = order[:-1][pair], order[1:][pair]
+    e3, eu = undirected_edges(np.asarray(F)[faces])[1], undirected_edges(np.asarray(FUV)[faces])[1]
+    _, key = np.unique(np.c_[e3, eu], axis=0, return_inverse=True)
+    key = key.reshape(-1)
+    fid = np.tile(np.arange(k), 3)
+    order = np.argsort(key, kind="stable")
+    same = key[order[1:]] == key[order[:-1]]
+    a, b = fid[order[:-1][same]], fid[order[1:][same]]
+    keep = group[a] != group[b]
+    A = sp.coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])), shape=(k, k))
+    return connected_components(A, directed=False)[1], twin
+
+
+def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, **kw):
+    """Repair a fold of twin halves in their layers (:func:`twin_layers`), each in its own orientation.
+
+    In each layer the cluster's faces (or their twins) lie in, the faces reversed against the layer (the
+    orientation holding more of it, :func:`~neuraluv.layout.facts.holds_more`) next to the cluster are
+    repaired by :func:`~neuraluv.repair.local.repair_cluster` with the layer's rows free, except rows of
+    faces outside the layer that are no twins of its faces: a twin has the same rows, so it follows, mirrored.
+
+    Parameters
+    ----------
+    Vn : (n,3) float array
+    F, FUV : (m,3) int arrays
+    UV : (p,2) float array (not modified)
+    island, cluster : int arrays, the island's faces and the fold's
+    scale : float, the island's texel density
+    **kw : for :func:`~neuraluv.repair.local.repair_cluster`
+
+    Returns
+    -------
+    UV : (p,2) float array or None (no layer had a fold, or one was not repaired)
+    info : dict, ``step`` and the last layer's details; ``faces``: the cluster's faces and their twins
+    """
+    island = np.sort(np.asarray(island, np.int64))
+    layer, twin = twin_layers(F, FUV, island)
+    if not (twin >= 0).any():
+        return None, {"step": "escalate", "reason": "no twin faces"}
+    at = np.searchsorted(island, cluster)
+    near = np.zeros(len(UV), bool)
+    near[np.unique(FUV[cluster])] = True
+    touch = near[FUV[island]].any(1)
+    out, info, done = UV, {"step": "escalate", "reason": "no layer folded"}, 0
+    for lay in np.unique(np.r_[layer[at], layer[twin[at][twin[at] >= 0]]]):
+        mine = layer == lay
+        fl = island[mine]
+        sign = np.array([layer_sign(Vn, F, out, FUV, fl), 1.0])
+        work = out * sign
+        targets = fl[~(face_dets_of(Vn, F, work, FUV, fl) > 0) & touch[mine]]
+        if not len(targets):
+            continue
+        others = ~mine & ~((twin >= 0) & mine[np.maximum(twin, 0)])  # faces outside the layer, no twin in it
+        locked = np.zeros(len(UV), bool)
+        locked[np.unique(FUV[island[others]])] = True
+        bad = np.zeros(len(F), bool)
+        bad[targets] = True
+        allowed = intended_overlaps(work, FUV, fl, bad, IslandGraph(FUV, fl, len(work)))
+        res, info = repair_cluster(Vn, F, work, FUV, IslandGraph(FUV, fl, len(work), locked=locked), targets, scale,
+                                   **{**kw, "allowed": allowed})
+        if res is None:  # the whole layer free (its locked rows kept)
+            rows = np.setdiff1d(np.unique(FUV[fl]), np.flatnonzero(locked))
+            res, info = untangle_faces(Vn, F, work, FUV, fl, rows, scale, allowed, deadline=kw.get("deadline"))
+        if res is None:
+            return None, info
+        out, done = res * sign, done + 1
+    if not done:
+        return None, info
+    both = np.r_[at, twin[at][twin[at] >= 0]]
+    return out, {**info, "step": info["step"] + " (twin layers)", "faces": np.unique(island[both])}
+
+
+def layer_sign(Vn, F, UV, FUV, faces):
+    """The orientation of a layer (or any face set): -1.0 when its reversed faces hold more of it
+    (:func:`~neuraluv.layout.facts.holds_more`), else 1.0."""
+    pos = face_dets_of(Vn, F, UV, FUV, faces) > 0
+    a2, a3 = np.abs(signed_areas_2d(UV, FUV[faces])), face_areas(Vn, F[faces])
+    return -1.0 if holds_more(a2[~pos].sum(), a2[pos].sum(), a3[~pos].sum(), a3[pos].sum()) else 1.0
+
+
+def twin_layers_hold(Vn, F, UV, FUV, island, cluster):
+    """Whether every face of ``cluster`` is oriented like its layer (:func:`twin_layers`): a fold a twin-layer
+    repair already undid (seen from the other half's shell, its faces are the repaired faces' twins)."""
+    island = np.sort(np.asarray(island, np.int64))
+    layer, _ = twin_layers(F, FUV, island)
+    at = np.searchsorted(island, cluster)
+    for lay in np.unique(layer[at]):
+        sign = np.array([layer_sign(Vn, F, UV, FUV, island[layer == lay]), 1.0])
+        if not (face_dets_of(Vn, F, UV * sign, FUV, cluster[layer[at] == lay]) > 0).all():
+            return False
+    return True
+

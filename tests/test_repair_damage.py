@@ -1,0 +1,131 @@
+"""Added damage on texture layouts that the authored-asset bench left unfixed (issue 27), as small procedural cases.
+
+Each test is the smallest layout with the cause found on a real asset: a vertex flung across a small island
+(tube.obj, vertex noise), a fold on the rows two mirrored halves share (Blender's mirrored Suzanne), folds
+next to the pole of a latitude-longitude map (capsule.obj, vertex noise), a NaN on a palette's point (chair_model.obj,
+NaN UVs).
+"""
+import numpy as np
+
+from neuraluv.layout.facts import layout_facts
+from neuraluv.layout.purpose import layout_intent
+from neuraluv.layout.facts import face_clusters
+from neuraluv.repair.local import with_stretched_neighbours
+from neuraluv.repair.repair import repair_layout
+
+
+def grid(nx=6, ny=2):
+    """A flat ``nx`` × ``ny`` quad grid split into triangles: ``V (n,3), F (m,3)``."""
+    x, y = np.meshgrid(np.arange(nx + 1.0), np.arange(ny + 1.0))
+    V = np.c_[x.ravel(), y.ravel(), 0 * x.ravel()]
+    w = nx + 1
+    q = np.array([[i + w * j, i + 1 + w * j, i + 1 + w * (j + 1), i + w * (j + 1)] for j in range(ny) for i in range(nx)])
+    return V, np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+
+
+def test_a_vertex_flung_across_a_small_island_is_a_fold_not_a_mirrored_island():
+    # one boundary vertex thrown far past the island: one of its two faces reverses and covers more UV area than
+    # the 22 faces it folds over; by UV area alone the island looked mirrored and its 22 faces the folds (the
+    # repair turned the whole island over). Its 3D area says which orientation holds the surface.
+    V, F = grid()
+    UV = V[:, :2] / 20 + 0.3
+    bad = UV.copy()
+    bad[3] = [0.47, 2.0]
+    f = layout_facts(V, F, bad, F)
+    it = layout_intent(f)
+    assert -f.signed_uv[f.det < 0].sum() > f.signed_uv[f.det > 0].sum()  # the reversed face holds more UV area
+    assert not f.mirrored[0]
+    assert set(np.flatnonzero(it.fold)) == set(np.flatnonzero(f.det < 0))
+    res = repair_layout(V, F, bad, F, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+    assert res.changed_faces.sum() <= 3  # the flung vertex's faces only
+
+
+def twin_halves(n=4, rows=4):
+    """A mirror modifier's halves sharing their UVs: the right half an ``n`` × ``rows`` grid at ``x >= 0``, the
+    left half its mirror image (winding reversed, merged at ``x = 0``), every face using its mirror face's
+    ``vt`` rows. Returns ``V, F, UV, FUV``."""
+    V, FR = grid(n, rows)
+    P = V[:, :2]
+    right = np.flatnonzero(P[:, 0] > 0)
+    left_of = np.arange(len(P))
+    left_of[right] = len(P) + np.arange(len(right))
+    V2 = np.r_[P, P[right] * [-1, 1]]
+    return np.c_[V2, 0.2 * np.cos(V2[:, 0])], np.r_[FR, left_of[FR][:, ::-1]], P / 10 + 0.1, np.r_[FR, FR[:, ::-1]]
+
+
+def test_a_fold_on_rows_twin_halves_share_is_repaired_in_both_halves_at_once():
+    # a row both halves use pushed over its neighbours folds both: each half's folded faces lie, by orientation,
+    # in the other half's sheet, where they are not reversed but lie over their neighbours, and every row is
+    # shared with the other half (locked). Repaired in the half's own layer (joined in 3D and in UV), the
+    # twins follow: valid, and the halves still share every row.
+    V, F, UV, FUV = twin_halves()
+    assert not layout_intent(layout_facts(V, F, UV, FUV)).fold.any()
+    bad = UV.copy()
+    bad[12] += [0.15, 0.03]
+    assert layout_intent(layout_facts(V, F, bad, FUV)).fold.sum() == 12
+    res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+    assert len(res.UV) == len(UV) and np.array_equal(res.FUV, FUV)  # no row split off: still twins
+    assert res.changed_rows.sum() <= 4
+
+
+def pole_cap(nu=16, nv=6):
+    """A latitude-longitude map of a spherical cap: an ``nu`` × ``nv`` quad grid in UV (4:1), its top row of
+    vertices all at the pole in 3D, each with its own ``vt`` row, so each top quad is one stretched triangle
+    and one without 3D area. Returns ``V, F, UV, FUV``."""
+    gu, gv = np.meshgrid(np.arange(nu + 1.0), np.arange(nv + 1.0))
+    _, FUV = grid(nu, nv)
+    th, ph = 2 * np.pi * gu.ravel() / nu, 0.5 * np.pi * gv.ravel() / nv
+    P = np.c_[np.cos(th) * np.cos(ph), np.sin(th) * np.cos(ph), np.sin(ph)]
+    P[gv.ravel() == nv] = [0, 0, 1]
+    V, vid = np.unique(P.round(12), axis=0, return_inverse=True)
+    return V, vid.reshape(-1)[FUV], np.c_[0.8 * gu.ravel() / nu, 0.2 * gv.ravel() / nv] + 0.05, FUV
+
+
+def test_folds_along_a_pole_stay_apart_and_are_repaired_in_place():
+    # the rows around a pole are stretched on purpose; a fold's stretched neighbours joined through them made
+    # every fold along the pole one cluster (hundreds of faces on capsule.obj, slow, then left folded). Only
+    # stretched faces within two rings of a fold join it now.
+    nu, nv = 24, 24
+    V, F, UV, FUV = pole_cap(nu, nv)
+    bad = UV.copy()
+    for c in (3, 11, 19):
+        bad[c + (nu + 1) * (nv - 2)] += [0.03, -0.002]
+    f = layout_facts(V, F, bad, FUV)
+    folds = np.flatnonzero(layout_intent(f).fold)
+    assert len(folds) == 3
+    grown = with_stretched_neighbours(f.Vn, F, bad, FUV, np.flatnonzero(~f.degenerate3d), folds)
+    assert len(face_clusters(FUV, grown)) == 3
+    res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+
+
+def test_a_fold_on_a_row_shared_with_faces_without_3d_area_is_repaired_without_splitting_rows():
+    # the row next to the pole is shared with a face without 3D area (no map to keep): the fold's own faces
+    # may move it; it was locked like another shell's row, and the fold repaired on split-off copies
+    nu, nv = 16, 6
+    V, F, UV, FUV = pole_cap(nu, nv)
+    bad = UV.copy()
+    r = 5 + (nu + 1) * (nv - 1)
+    bad[r] += [0.06, 0.02]
+    f = layout_facts(V, F, bad, FUV)
+    assert layout_intent(f).fold.any() and f.degenerate3d[(FUV == r).any(1)].any()
+    res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+    assert len(res.UV) == len(UV)  # no row split off
+
+
+def test_faces_of_a_palette_point_that_became_nan_get_a_point_not_charts():
+    # faces whose three corners use one vt row are a point whatever its value (one flat colour's texel); when
+    # that row is NaN they were charted like faces that never had UVs (thousands of charts on chair_model.obj)
+    V, F = grid(6, 4)
+    UV = V[:, :2] / 10 + 0.05
+    FUV = F.copy()
+    pal = np.arange(24, 48)  # the upper half: all on one row
+    FUV[pal] = len(UV)
+    UV = np.vstack([UV, [[np.nan, np.nan]]])
+    res = repair_layout(V, F, UV, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"] and res.after.validation["palette_faces"] == len(pal)
+    assert [(c["route"], c["faces"]) for c in res.new_charts] == [("point", len(pal))]
+    assert (res.FUV[pal] == res.FUV[pal[0], 0]).all() and np.isfinite(res.UV[res.FUV[pal[0], 0]]).all()
