@@ -346,15 +346,26 @@ def test_preset_help_states_the_fast_preset_as_configured():
 
 def test_auto_threads_leave_busy_cpus_alone_and_the_cli_takes_auto_or_a_count(monkeypatch):
     import argparse
+    import io
     import os
 
     from neuraluv.cli.options import threads_arg
     from neuraluv.solver import device
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2, 3})
-    monkeypatch.setattr(os, "getloadavg", lambda: (2.6, 0.0, 0.0))
+    monkeypatch.setattr(device, "_busy_now", lambda cpus: 2.6)
     assert device.auto_threads()[0] == 1  # 4 CPUs, 2.6 busy: one free (the running count can only add)
-    monkeypatch.setattr(os, "getloadavg", lambda: (9.0, 0.0, 0.0))
+    monkeypatch.setattr(device, "_busy_now", lambda cpus: 9.0)
     assert device.auto_threads()[0] == 1  # never fewer than one
+    # a load average left by jobs that have ended does not count when the CPUs are idle now
+    monkeypatch.setattr(device, "_busy_now", lambda cpus: 0.0)
+    monkeypatch.setattr(os, "getloadavg", lambda: (3.5, 0.0, 0.0))
+    real_open = open
+    monkeypatch.setattr("builtins.open", lambda f, *a, **k: io.StringIO("3.50 2.00 1.00 1/300 4242")
+                        if f == "/proc/loadavg" else real_open(f, *a, **k))
+    assert device.auto_threads()[0] == 4
+    # where /proc/stat cannot be read, the load average stands in
+    monkeypatch.setattr(device, "_busy_now", lambda cpus: None)
+    assert device.auto_threads()[0] == 1
     import torch
     before = torch.get_num_threads()
     with device.torch_threads("auto"):

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import time
 
 from neuraluv.errors import NeuralUVError
 
@@ -53,13 +54,32 @@ def resolve_device(device="auto"):
     return dev
 
 
+def _busy_now(cpus, seconds=0.1):
+    """CPUs of ``cpus`` busy right now: their non-idle share of the next ``seconds`` (``/proc/stat``), or None."""
+    def sample():
+        with open("/proc/stat") as fh:
+            rows = {ln.split()[0]: [int(x) for x in ln.split()[1:]] for ln in fh if ln.startswith("cpu")}
+        return [(sum(r), r[3] + (r[4] if len(r) > 4 else 0)) for c, r in rows.items() if c[3:].isdigit()
+                and int(c[3:]) in cpus]
+    try:
+        a = sample()
+        time.sleep(seconds)
+        b = sample()
+    except (OSError, ValueError, IndexError):
+        return None
+    if not a or len(a) != len(b):
+        return None
+    return sum(1.0 - (ib - ia) / (tb - ta) for (ta, ia), (tb, ib) in zip(a, b) if tb > ta)
+
+
 def auto_threads():
     """Torch CPU threads for a solve: the CPUs this process may use that nothing else is busy on.
 
-    Busy is the larger of the 1-minute load average and the tasks running right
-    now besides this one (``/proc/loadavg``'s fourth field on Linux: the load
-    average lags a minute behind, so two runs started together see each other
-    only there). At least one thread.
+    Busy is the larger of the CPUs' non-idle share over the next tenth of a second
+    (``/proc/stat``) and the tasks running right now besides this one
+    (``/proc/loadavg``'s fourth field: two runs started together see each other
+    there, before either has used a CPU). Where ``/proc/stat`` cannot be read,
+    the 1-minute load average stands in for the first. At least one thread.
 
     Returns
     -------
@@ -73,7 +93,9 @@ def auto_threads():
     15.9 s and 1 thread 20.6 s; two such runs at once, 2 threads each 47.3 s
     (and 89–519 s with other OpenMP spin settings), 1 thread each 21.8 s.
     Oversubscribed torch thread pools slow down by ×3 and more; a thread too few
-    costs at most the second core.
+    costs at most the second core. The load average alone lags a minute behind:
+    the ``bench speed --atlas`` run of nefertiti, started when the jobs before it
+    had ended and one core was idle, read 2.0 and ran on one thread.
 
     Examples
     --------
@@ -81,13 +103,16 @@ def auto_threads():
     True
     """
     try:
-        cpus = len(os.sched_getaffinity(0))
+        affinity = os.sched_getaffinity(0)
     except (AttributeError, OSError):
-        cpus = os.cpu_count() or 1
-    try:
-        busy = os.getloadavg()[0]
-    except (AttributeError, OSError):
-        busy = 0.0
+        affinity = set(range(os.cpu_count() or 1))
+    cpus = len(affinity)
+    busy = _busy_now(affinity)
+    if busy is None:
+        try:
+            busy = os.getloadavg()[0]
+        except (AttributeError, OSError):
+            busy = 0.0
     try:
         with open("/proc/loadavg") as fh:
             running = int(fh.read().split()[3].split("/")[0]) - 1  # this process is one of them
