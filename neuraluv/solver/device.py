@@ -94,8 +94,9 @@ def auto_threads():
     (and 89–519 s with other OpenMP spin settings), 1 thread each 21.8 s.
     Oversubscribed torch thread pools slow down by ×3 and more; a thread too few
     costs at most the second core. The load average alone lags a minute behind:
-    the ``bench speed --atlas`` run of nefertiti, started when the jobs before it
-    had ended and one core was idle, read 2.0 and ran on one thread.
+    ``bench speed --atlas`` started nefertiti as the steps before it ended (load
+    average 2.0) and the machine then stayed at a load of 1.0–1.3 for minutes:
+    one thread on two idle cores.
 
     Examples
     --------
