@@ -395,14 +395,15 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             idx.append(k)
         except Exception as exc:  # degenerate input for the eigensolver etc.: a marked fallback, never a crash
             why[k] = why.get(k, "") + f"neural solver error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-    results = []
+    results, simple = [], []
     if idx and (deadline is None or time.perf_counter() < deadline):
         results = solve_charts(None, cfg, preps=preps, seed=seed, device=device, deadline=deadline, progress=progress)
-        results = _solve_on(results, preps, [meshes[k] for k in idx], cfg, seed, device, deadline, solve_charts)
+        results, simple = _solve_on(results, preps, [meshes[k] for k in idx], cfg, seed, device, deadline,
+                                    solve_charts)
     else:
         for k in idx:
             why[k] = why.get(k, "") + "time budget exhausted before the neural solve"
-    for k, res in zip(idx, results):
+    for k, res, ok in zip(idx, results, simple):
         fidx, src, _ = todo[k]
         vi, Fl, Vx, Fx = meshes[k]
         solver = res.summary()
@@ -411,7 +412,7 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             solver["filled_holes"] = int(len(Vx))
         uv = None if res.uv is None else res.uv[:len(vi)]  # the fillers' vertices come last: dropped
         # no flip and a simple outer boundary: injective on the filled disk, hence on the chart
-        if _simple(res, meshes[k]):
+        if ok:
             out[k] = _finish(AtlasChart(fidx, "neural", "neural", "", src, [(fidx, vi, Fl, uv)], solver=solver), V, t0)
             continue
         if res.status == "neural":
@@ -442,10 +443,12 @@ def _simple(res, mesh):
 def _solve_on(results, preps, meshes, cfg, seed, device, deadline, solve_charts):
     """Go on with the flip-free neural maps whose boundary crosses itself: :data:`CONTINUE_STEPS` more
     steps from their last parameters (no early stop, no retry); a map that comes out simple replaces
-    the first one, any other keeps it (and is split by the caller)."""
-    again = [j for j, (r, m) in enumerate(zip(results, meshes)) if r.status == "neural" and not _simple(r, m)]
+    the first one, any other keeps it (and is split by the caller). Returns the results and, per result,
+    whether it is a neural map with a simple boundary (judged once)."""
+    simple = [_simple(r, m) for r, m in zip(results, meshes)]
+    again = [j for j, (r, ok) in enumerate(zip(results, simple)) if r.status == "neural" and not ok]
     if not again or (deadline is not None and time.perf_counter() > deadline):
-        return results
+        return results, simple
     go_on = replace(cfg, iterations=CONTINUE_STEPS, early_stop=False, retries=0)
     more = solve_charts(None, go_on, preps=[preps[j] for j in again], seed=seed, device=device, deadline=deadline,
                         theta0=[results[j].theta for j in again])
@@ -453,8 +456,8 @@ def _solve_on(results, preps, meshes, cfg, seed, device, deadline, solve_charts)
     for j, r in zip(again, more):
         if _simple(r, meshes[j]):
             r.time += results[j].time
-            results[j] = r
-    return results
+            results[j], simple[j] = r, True
+    return results, simple
 
 
 def route_chart(V, F, fidx, config="fast", *, seed=0, device="cpu", source="component", deadline=None):
