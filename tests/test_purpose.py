@@ -351,3 +351,34 @@ def test_a_gltf_with_external_buffers_is_repaired_with_a_note(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "keeps positions and UVs only" in out and "re-baked" not in out
     assert read_gltf_layout(tmp_path / "o.glb").F.shape == F.shape
+
+
+def test_a_fold_across_a_vertex_split_keeps_the_split_closed():
+    # a glTF vertex split for its normals: the rows on the split line repeat their neighbours' UVs at the same
+    # 3D places. They are one point of the map: the repair must move each pair as one, or it opens a slit
+    # (or lays one side over the other).
+    from neuraluv.datasets import disk
+    from neuraluv.layout.facts import coincident_rows
+    from neuraluv.tutte import tutte
+
+    V, F = disk(n_rings=12)
+    UV = tutte(V, F) * 0.4 + 0.5
+    centre = int(np.argmin(np.abs(V[:, 0]) + np.abs(V[:, 1])))
+    bad, _ = damage.local_fold(V, F, UV, F, rings=2, seed=3, rows=np.array([centre]))
+    c = V[F].mean(1)
+    right = c[:, 0] > 0
+    shared = np.intersect1d(F[right & (c[:, 1] > -0.1)], F[~right])  # a slit from the centre's side up: one island
+    shared = shared[V[shared, 1] > -0.05]
+    copy = len(V) + np.arange(len(shared))  # the right side's own copies of the split line's vertices
+    F2 = F.copy()
+    hit = (right & (c[:, 1] > -0.1))[:, None] & np.isin(F, shared)
+    F2[hit] = copy[np.searchsorted(shared, F[hit])]
+    V2, bad2 = np.r_[V, V[shared]], np.r_[bad, bad[shared]]
+    assert np.array_equal(coincident_rows(V2, F2, bad2, F2)[copy], shared)
+    assert layout_facts(V2, F2, bad2, F2).n_islands == 1
+    assert not diagnose_layout(V2, F2, bad2, F2, purpose="texture").ok
+    res = repair_layout(V2, F2, bad2, F2, "test", purpose="texture", device="cpu")
+    assert res.after.ok and res.after.validation["valid"]
+    assert (res.changed_rows[shared] | res.changed_rows[copy]).any()  # the fold reached the split line
+    assert np.array_equal(res.UV[shared], res.UV[copy])  # and the split stayed closed
+    assert np.array_equal(res.FUV, F2)

@@ -44,7 +44,7 @@ DEFECT_TEXELS = 0.5
 #: name -> module of this package that defines it (imported on first use, so that ``neuraluv.layout.pack``'s
 #: settings stay cheap to import, e.g. for the command line's help).
 _WHERE = {
-    "LayoutFacts": "facts", "layout_facts": "facts", "uv_islands": "facts", "face_clusters": "facts",
+    "LayoutFacts": "facts", "layout_facts": "facts", "uv_islands": "facts", "coincident_rows": "facts", "face_clusters": "facts",
     "texel_density": "facts", "defect_area": "facts", "island_densities": "facts", "face_texel_density": "facts", "density_spread": "facts",
     "find_overlaps": "overlap", "overlap_pairs": "overlap", "self_overlap": "overlap", "triangles_union": "overlap",
     "boundary_is_simple": "overlap", "validate_layout": "validate", "validate_facts": "validate",

@@ -30,7 +30,7 @@ from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import face_dets
 from neuraluv.topology import faces_sharing
 
-__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "face_clusters", "texel_density", "island_densities",
+__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "coincident_rows", "face_clusters", "texel_density", "island_densities",
            "face_texel_density",
            "density_spread", "DEGENERATE_3D_AREA", "defect_area", "SURFACE_FACTOR", "holds_more"]
 
@@ -88,6 +88,64 @@ def uv_islands(FUV):
     """
     FUV = np.asarray(FUV, np.int64)
     return faces_sharing(FUV.reshape(-1), np.repeat(np.arange(len(FUV)), 3), len(FUV))
+
+
+def coincident_rows(V, F, UV, FUV, label=None):
+    """The row each ``vt`` row is one point of the map with: rows with bit-identical UVs used at corners with
+    bit-identical 3D positions (a glTF vertex split for its normals, an exporter's repeated ``vt``).
+
+    Such rows are no seam: the surface and its map are continuous across them, and a tool that moves one
+    must move the others with it, or it opens a slit (or lays one side over the other). Each group maps
+    to its smallest row. Islands stay as :func:`uv_islands` reads them: with ``label`` (an island per
+    face), only rows of one island are joined.
+
+    Parameters
+    ----------
+    V : (n,3) float array
+    F, FUV : (m,3) int arrays (``FUV`` -1 where a corner has no ``vt``)
+    UV : (p,2) float array (rows that are not finite are joined with none)
+    label : (m,) int array, optional
+        A group per face (faces with a negative label take no part).
+
+    Returns
+    -------
+    canon : (p,) int array, ``canon[r] <= r``; ``canon[r] == r`` for a row coincident with no smaller one.
+
+    Examples
+    --------
+    Two triangles split along their shared edge (rows 4, 5 repeat rows 1, 2 at the same places):
+
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [1, 0, 0], [0, 1, 0]])
+    >>> F = np.array([[0, 1, 2], [4, 3, 5]])
+    >>> coincident_rows(V, F, V[:, :2], F).tolist()
+    [0, 1, 2, 3, 1, 2]
+    >>> coincident_rows(V, F, V[:, :2], F, label=np.array([0, 1])).tolist()  # two islands: kept apart
+    [0, 1, 2, 3, 4, 5]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    FUV = np.asarray(FUV, np.int64)
+    UV = np.asarray(UV, float).reshape(-1, 2)
+    p = len(UV)
+    fin = np.isfinite(UV).all(1)
+    if len(np.unique(UV[fin], axis=0)) == fin.sum():  # no two rows alike: nothing to join
+        return np.arange(p)
+    r = FUV.reshape(-1)
+    ok = (r >= 0) & (r < p)
+    ok[ok] = fin[r[ok]]
+    lab = np.zeros(len(r)) if label is None else np.repeat(np.asarray(label, float), FUV.shape[1])
+    ok &= lab >= 0
+    rows = r[ok]
+    key = np.c_[UV[rows], np.asarray(V, float)[np.asarray(F, np.int64).reshape(-1)[ok]], lab[ok]]
+    _, k = np.unique(key, axis=0, return_inverse=True)
+    k = k.reshape(-1)
+    A = coo_matrix((np.ones(len(rows)), (rows, p + k)), shape=(p + k.max(initial=-1) + 1,) * 2)
+    _, comp = connected_components(A, directed=False)
+    comp = comp[:p]
+    first = np.full(comp.max(initial=-1) + 1, p, np.int64)
+    np.minimum.at(first, comp, np.arange(p))
+    return first[comp]
 
 
 def face_clusters(FUV, faces):

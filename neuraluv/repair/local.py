@@ -38,7 +38,7 @@ from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.repair.untangle import RegionEnergy, budget_spent, polish, untangle
 from neuraluv.solver.config import get_config
 
-__all__ = ["RING_SCHEDULE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd",
+__all__ = ["RING_SCHEDULE", "FAR_QUANTILE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd",
            "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces", "with_stretched_neighbours",
            "resolve_as_chart"]
 
@@ -125,10 +125,16 @@ def island_esds(Vn, F, UV, FUV, groups, scales):
     return np.where(bad, np.inf, esd)
 
 
-def _median_esd(Vn, F, UV, FUV, faces, scale):
-    """Median per-face E_SD of ``faces`` with the layout scaled by ``1/scale``."""
+#: The quantile of the per-face E_SD of the faces two to four rings beyond a repaired region that the next ring's
+#: mean E_SD is compared with (:func:`repair_cluster`): an artist's layout is far from evenly distorted, and a
+#: ring is damaged only where it is more distorted than most faces around it, not than the typical one.
+FAR_QUANTILE = 0.75
+
+
+def _far_esd(Vn, F, UV, FUV, faces, scale, q=FAR_QUANTILE):
+    """The ``q`` quantile of the per-face E_SD of ``faces`` with the layout scaled by ``1/scale``."""
     sd = face_metrics(corner_jacobians(Vn, F[faces], UV / scale, FUV[faces])[0])["sd"]
-    return float(np.median(sd)) if len(sd) else float("inf")
+    return float(np.quantile(sd, q)) if len(sd) else float("inf")
 
 
 def _tutte_inside(UV, FUV, faces, free):
@@ -249,9 +255,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     max_extra_rings, grow_gain, band_tol : int, float, float
         After the first region that works, grow it one ring at a time (at most
         ``max_extra_rings``) while the faces of the next ring are more than
-        ``band_tol`` (relative) more distorted than the median face two to
-        four rings out, and growing lowers the energy over the grown region and one ring
-        beyond by more than ``grow_gain``: rows the damage moved without folding
+        ``band_tol`` (relative) more distorted than most faces two to
+        four rings out (their :data:`FAR_QUANTILE` quantile), and growing lowers
+        the energy over the grown region and one ring beyond by more than ``grow_gain``: rows the damage moved without folding
         are freed too, but a layout that was merely not optimal is not
         "improved" beyond its neighbourhood's quality.
     allowed : set of (int, int), optional
@@ -296,13 +302,16 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc, deadline=deadline)
         ov = region_overlaps(out, FUV, region, island, allowed) if uinfo["ok"] else -1
         det = {"region": region, "free": free, "untangle": uinfo, "overlaps": ov, "scale": sc}
-        if not (uinfo["ok"] and ov == 0):
+        if not uinfo["ok"]:
             return None, det
         out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc, deadline=deadline)
-        if region_overlaps(out2, FUV, region, island, allowed):
-            out2 = out  # the polish moved a triangle over another: keep the untangled map
+        ov2 = region_overlaps(out2, FUV, region, island, allowed)
         det["polish"] = pinfo
-        return out2, det
+        if ov == 0:
+            return (out if ov2 else out2), det  # the polish moved a triangle over another: keep the untangled map
+        # untangled but overlapping (a stretched rim laid over the island): the polish pulls it back, or fails
+        det["overlaps"] = ov2
+        return (None if ov2 else out2), det
 
     # first the cluster's inner rows only (every face around them is in the cluster): a fold's damage is often
     # just those, and freeing them leaves the cluster's rim rows, and every face beyond, bit-identical
@@ -356,14 +365,14 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
             if len(region_b) > max_fraction * len(island) or (bigger == rows).all():
                 break
             # grow only while the damage goes on: the faces of the next ring (area-weighted mean) are more distorted
-            # than a typical face further out (the median over rings 2-4; a median, as the damage may reach
-            # there too) by more than ``band_tol``; otherwise growing would only
-            # "improve" the user's layout, not repair it
+            # than most faces further out (the FAR_QUANTILE quantile over rings 2-4: a quantile, as the damage may
+            # reach there too, and an upper one, as an artist's layout has distorted parts of its own) by more than
+            # ``band_tol``; otherwise growing would only "improve" the user's layout, not repair it
             region, sc = det["region"], det["scale"]
             near = graph.faces_touching(bigger)
             ring = np.setdiff1d(near, region)
             far = np.setdiff1d(graph.faces_touching(graph.grow(graph.grow(graph.grow(bigger)))), near)
-            if len(ring) and len(far) and region_esd(Vn, F, out, FUV, ring, sc) <= (1.0 + band_tol) * _median_esd(
+            if len(ring) and len(far) and region_esd(Vn, F, out, FUV, ring, sc) <= (1.0 + band_tol) * _far_esd(
                     Vn, F, out, FUV, far, sc):
                 break
             out_b, det_b = attempt(bigger)
@@ -407,10 +416,13 @@ def untangle_faces(Vn, F, UV, FUV, faces, rows, density, allowed=None, deadline=
         out, info = untangle(Vn, F, UV, FUV, faces, rows, scale=density, deadline=deadline)
     except ValueError:
         return None, {"ok": False}
-    if not (info["ok"] and region_overlaps(out, FUV, faces, faces, allowed) == 0):
+    if not info["ok"]:
         return None, info
+    ov = region_overlaps(out, FUV, faces, faces, allowed)
     out2, _ = polish(Vn, F, out, FUV, faces, rows, scale=density, deadline=deadline)
     if region_overlaps(out2, FUV, faces, faces, allowed):
+        if ov:  # overlapping before the polish and after it
+            return None, {**info, "overlaps": ov}
         out2 = out
     return out2, {"step": "untangle whole shell", "free_rows": int(len(rows)), "time": time.perf_counter() - t0}
 

@@ -36,7 +36,7 @@ from neuraluv.atlas.candidates import chart_candidates
 from neuraluv.atlas.routing import fallback_islands, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
-from neuraluv.layout.facts import DEGENERATE_3D_AREA, defect_area, face_clusters, layout_facts
+from neuraluv.layout.facts import DEGENERATE_3D_AREA, coincident_rows, defect_area, face_clusters, layout_facts
 from neuraluv.layout.purpose import check_purpose
 from neuraluv.meshfix import face_areas
 from neuraluv.plot import plot_repair
@@ -243,7 +243,11 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     Vn = facts.Vn
     UVw = facts.UV.copy()
     UVw[~np.isfinite(UVw).all(1)] = 0.0  # non-finite rows: their faces get new charts, the rows are neutralised
-    FUVw = facts.FUV.copy()
+    # rows that are one point of the map (a glTF vertex split for its normals) move as one: the steps work on the
+    # smallest row of each group, and every row of the group takes its value at the end
+    canon = coincident_rows(Vn, F, facts.UV, facts.FUV, facts.label)
+    FUVc = np.where(facts.FUV >= 0, canon[np.maximum(facts.FUV, 0)], -1)
+    FUVw = FUVc.copy()
     med = facts.median_density or 1.0
     actions = {i: [] for i in range(facts.n_islands)}
     movers_pref = set()  # islands (input labels) already changed: first choice when something must move
@@ -277,6 +281,9 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     for i, pl in placements.items():
         if i >= 0:
             actions[i].append(pl)
+    # every row of a group of coincident rows takes its value; a face whose rows no step replaced keeps its own
+    UVw[:p_in] = UVw[canon]
+    FUVw = np.where(FUVw == FUVc, facts.FUV, FUVw)
     after = diagnose_layout(V, F, UVw, FUVw, resolution=resolution, padding=padding,
                             facts=layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap),
                             purpose=purpose)
