@@ -368,9 +368,16 @@ def test_auto_threads_leave_busy_cpus_alone_and_the_cli_takes_auto_or_a_count(mo
     assert device.auto_threads()[0] == 1
     import torch
     before = torch.get_num_threads()
+    from threadpoolctl import threadpool_info
+
+    def blas():
+        return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+
+    blas_before = blas()
     with device.torch_threads("auto"):
         assert torch.get_num_threads() == 1
-    assert torch.get_num_threads() == before
+        assert set(blas()) <= {1}  # NumPy's and SciPy's BLAS pools too: they spin under load like torch's
+    assert torch.get_num_threads() == before and blas() == blas_before
     assert threads_arg("auto") == "auto" and threads_arg("3") == 3
     with pytest.raises(argparse.ArgumentTypeError):
         threads_arg("0")
