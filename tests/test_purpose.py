@@ -382,3 +382,29 @@ def test_a_fold_across_a_vertex_split_keeps_the_split_closed():
     assert (res.changed_rows[shared] | res.changed_rows[copy]).any()  # the fold reached the split line
     assert np.array_equal(res.UV[shared], res.UV[copy])  # and the split stayed closed
     assert np.array_equal(res.FUV, F2)
+
+
+def test_a_fold_on_rows_that_stacked_copies_share_is_repaired_locally():
+    # an array modifier's copies share their vt rows (they read the same texels): a row pushed over its neighbours
+    # folds every copy at once. Only those faces are folds (the copies lying on each other are intent), and
+    # the repair moves the row back without re-solving or cutting anything.
+    w, h = 13, 9
+    x, y = np.meshgrid(np.arange(float(w)), np.arange(float(h)))
+    P = np.c_[x.ravel(), y.ravel()]
+    q = np.array([[i + w * j, i + 1 + w * j, i + 1 + w * (j + 1), i + w * (j + 1)] for j in range(h - 1) for i in range(w - 1)])
+    T = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+    k = 3
+    V = np.concatenate([np.c_[P, np.full(len(P), 2.0 * c) + 0.1 * np.sin(P[:, 0])] for c in range(k)])
+    F = np.concatenate([T + c * len(P) for c in range(k)])
+    FUV = np.tile(T, (k, 1))
+    UV = P / 16.0 + 0.1
+    bad = UV.copy()
+    bad[w * 4 + 6] += [0.1, 0.0]  # an inner row pushed past its neighbours
+    f = layout_facts(V, F, bad, FUV)
+    it = layout_intent(f)
+    folded = f.det * layout_facts(V, F, UV, FUV).det < 0
+    assert folded.any() and np.array_equal(it.fold, folded)
+    res = repair_layout(V, F, bad, FUV, "test", purpose="texture", device="cpu")
+    assert res.after.ok and res.after.validation["valid"]
+    assert [a["step"] for i in res.islands for a in i["actions"]] == ["untangle+polish"]
+    assert 1.0 - res.changed_faces.mean() >= 0.8

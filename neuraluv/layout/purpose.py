@@ -320,8 +320,9 @@ def layout_intent(facts, *, stacked_share=STACKED_SHARE):
         for c in (-1, 1):
             fc = cand[cls[cand] == c]
             a, b = overlap_pairs(facts.UV, facts.FUV, fc)
-            # two faces of one class on one vt edge lie on opposite sides of it unless one is folded over
-            near = ((facts.FUV[a][:, :, None] == facts.FUV[b][:, None, :]).any(2).sum(1) >= 2) & (sheet[a] == sheet[b])
+            # two faces of one class on one vt edge lie on opposite sides of it unless one is folded over (two on
+            # all three rows are twins, copies stacked on purpose: an array modifier's copies share their rows)
+            near = ((facts.FUV[a][:, :, None] == facts.FUV[b][:, None, :]).any(2).sum(1) == 2) & (sheet[a] == sheet[b])
             pleat = np.unique(np.r_[a[near], b[near]])
             fold[pleat] = True
     shell_of_sheet = -np.ones(n_sheets, np.int64)

@@ -75,9 +75,12 @@ def region_overlaps(UV, FUV, region, island, allowed=None):
     """Number of overlapping triangle pairs with a face in ``region`` among the ``island``'s faces (exact).
 
     ``allowed``: a set of face pairs ``(i, j)``, ``i < j``, that overlapped before on purpose (a texture
-    layout's shell may lie over itself); they are not counted.
+    layout's shell may lie over itself); they are not counted. Nor are twins (two faces on the same three rows:
+    copies stacked on purpose, which no move of their rows can part).
     """
     a, b = overlap_pairs(UV, FUV, island, region)
+    twin = (np.sort(FUV[a], 1) == np.sort(FUV[b], 1)).all(1)
+    a, b = a[~twin], b[~twin]
     if not allowed:
         return len(a)
     return sum((int(i), int(j)) not in allowed for i, j in zip(np.minimum(a, b), np.maximum(a, b)))

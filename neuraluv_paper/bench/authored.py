@@ -108,10 +108,24 @@ def _write_damaged(src, dst, data, UV):
             _write_glb(doc, dst, keep_json=True)
 
 
-def _repair_row(asset, case, path, out, tmp):
+def _kept_outside(path, out, untouched):
+    """Share of the faces the damage left alone (``untouched``) whose corners the repair kept bit for bit (None
+    where the output's faces do not line up with the input's)."""
+    a, b = read_layout(path), read_layout(out)
+    if len(a[1]) != len(b[1]) or not untouched.any():
+        return None
+    ua, ub = a[2][np.maximum(a[3], 0)], b[2][np.maximum(b[3], 0)]
+    same = (ua.view(np.int64) == ub.view(np.int64)).all(axis=(1, 2)) & ((a[3] < 0) == (b[3] < 0)).all(1)
+    return float(same[untouched].mean())
+
+
+def _repair_row(asset, case, path, out, tmp, untouched=None):
     rep = tmp / "r.json"
     code, so, se, secs = _cli(["repair", path, "-o", out, "--report", rep, "--device", "cpu"])
     row = {"asset": asset, "case": case, "exit": code, "time_s": secs}
+    if untouched is not None and Path(out).exists():
+        row["kept_outside_damage"] = _kept_outside(path, out, untouched)
+        row["damaged_faces"] = int((~untouched).sum())
     if rep.exists():
         r = json.loads(rep.read_text())
         b = r["readback"]
@@ -174,7 +188,9 @@ def bench(*, output="results/authored", seed=0, damaged=True, argv=None, show_pr
                 continue
             dmg = tmp / ("damaged" + work.suffix)
             _write_damaged(work, dmg, data, bad)
-            row = _repair_row(fname, case, dmg, tmp / ("fixed" + work.suffix), tmp)
+            moved = ~((bad == UV) | (np.isnan(bad) & np.isnan(UV))).all(1)  # rows the damage changed
+            untouched = ~moved[np.maximum(FUV, 0)].any(1)
+            row = _repair_row(fname, case, dmg, tmp / ("fixed" + work.suffix), tmp, untouched)
             rows.append(row)
             if show_progress:
                 print(_line(row), flush=True)
@@ -222,13 +238,15 @@ def _markdown(rows, notes):
     small = [r for r in dam if r.get("faces", 0) <= 20000]
     lm = [r for r in rows if r["case"].startswith("lightmap")]
     reb = [r for r in rows if "rebake_surface_mean" in r]
+    kept = [r["kept_outside_damage"] for r in dam if r.get("kept_outside_damage") is not None]
     summary = [
         f"- Assets as made: **{len(made)}**; internal errors (exit 1): **{sum(r.get('exit') == 1 for r in rows)}**; "
         f"with only intentional features: {len(intent)}, of which written back byte-identical: "
         f"**{sum(bool(r.get('byte_identical')) for r in intent)}/{len(intent)}**.",
         f"- Added damage: **{len(ok)}/{len(dam)}** fixed (read back valid under the default purpose); faces "
         f"bit-identical to the damaged input: median {_pct(np.median([r['bit_identical'] for r in dam if 'bit_identical' in r]) if dam else None)}, "
-        f"lowest {_pct(min([r['bit_identical'] for r in dam if 'bit_identical' in r], default=None))}; "
+        f"lowest {_pct(min([r['bit_identical'] for r in dam if 'bit_identical' in r], default=None))}; of the faces the "
+        f"damage left alone: median {_pct(np.median(kept) if kept else None)}, lowest {_pct(min(kept, default=None))}; "
         f"time (whole command, ≤ 20k faces): median {np.median([r['time_s'] for r in small]) if small else float('nan'):.1f} s, "
         f"max {max([r['time_s'] for r in small], default=float('nan')):.1f} s.",
     ]
@@ -241,22 +259,26 @@ def _markdown(rows, notes):
         summary.append(f"- Lightmaps (GLB, `--purpose lightmap`): **{sum(bool(r.get('valid_read_back')) for r in lm)}/{len(lm)}** "
                        f"valid with padding held; TEXCOORD_0 kept in {sum(bool(r.get('texcoord0_kept')) for r in lm)}/{len(lm)}.")
     head = ["asset", "case", "exit", "purpose", "faces", "problems", "features", "valid", "folded after",
-            "bit-identical", "byte-identical", "rebake mean (surface / changed)", "time (s)"]
+            "bit-identical", "kept outside the damage", "byte-identical", "rebake mean (surface / changed)", "time (s)"]
     body = []
     for r in rows:
         if "exit" not in r:
-            body.append([r["asset"], r["case"], "—", "", "", "", "", "skipped: " + r.get("error", ""), "", "", "", "", ""])
+            body.append([r["asset"], r["case"], "—", "", "", "", "", "skipped: " + r.get("error", ""), "", "", "", "", "",
+                         ""])
             continue
         body.append([r["asset"], r["case"], r["exit"], r.get("purpose", ""), r.get("faces", ""), r.get("problems_before", ""),
                      r.get("features", ""), "yes" if r.get("valid_read_back") else ("no" if "valid_read_back" in r else "—"),
                      r.get("folded_after", ""), _pct(r.get("bit_identical")),
+                     (f"{_pct(r['kept_outside_damage'])} ({r['damaged_faces']} damaged)"
+                      if r.get("kept_outside_damage") is not None else ""),
                      {True: "yes", False: "no"}.get(r.get("byte_identical"), ""),
                      (f"{r['rebake_surface_mean']:.3f} / {r['rebake_changed_mean']:.2f}" if "rebake_surface_mean" in r else ""),
                      f"{r['time_s']:.1f}"])
     text = [*summary, "", markdown_table(head, body), "",
             "*exit*: 0 valid, 3 written but read back not valid (the report says which faces), 2 refused with a "
             "one-line reason, 1 internal error. *bit-identical*: faces whose corners keep the input's UV bits and "
-            "indices. *rebake*: colour difference of the textured surface before and after at 100,000 area-uniform "
+            "indices. *kept outside the damage*: of the faces whose UVs the added damage did not change, the share the "
+            "repair kept bit for bit (the faces an asset's own problems need are among them). *rebake*: colour difference of the textured surface before and after at 100,000 area-uniform "
             "points (Euclidean over RGB, 8-bit levels), over the whole surface and over the changed faces alone. "
             "Lightmap rows: *folded after* is flips of the new UV set; the padding is the command's default (2 texels at 1024)."]
     text += [f"- {n}" for n in notes]
