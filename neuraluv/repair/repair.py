@@ -37,7 +37,7 @@ from neuraluv.atlas.routing import fallback_islands, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
 from neuraluv.layout.facts import DEGENERATE_3D_AREA, coincident_rows, defect_area, face_clusters, layout_facts
-from neuraluv.layout.purpose import check_purpose
+from neuraluv.layout.purpose import check_purpose, layout_intent
 from neuraluv.meshfix import face_areas
 from neuraluv.plot import plot_repair
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
@@ -248,6 +248,13 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     canon = coincident_rows(Vn, F, facts.UV, facts.FUV, facts.label)
     FUVc = np.where(facts.FUV >= 0, canon[np.maximum(facts.FUV, 0)], -1)
     FUVw = FUVc.copy()
+
+    def unweld(U, FU):
+        """The layout as written: every row of a group takes its value; a face whose rows no step replaced keeps
+        its own."""
+        U = U.copy()
+        U[:p_in] = U[canon]
+        return U, np.where(FU == FUVc, facts.FUV, FU)
     med = facts.median_density or 1.0
     actions = {i: [] for i in range(facts.n_islands)}
     movers_pref = set()  # islands (input labels) already changed: first choice when something must move
@@ -256,6 +263,8 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
             UVw, FUVw = repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)
+            UVw, FUVw = _second_pass(Vn, F, UVw, FUVw, facts, actions, med, cfg, unweld, seed=seed, device=device,
+                                     deadline=deadline, neural=neural)
         else:
             UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, seed=seed,
                                         device=device, deadline=deadline, neural=neural)
@@ -281,9 +290,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     for i, pl in placements.items():
         if i >= 0:
             actions[i].append(pl)
-    # every row of a group of coincident rows takes its value; a face whose rows no step replaced keeps its own
-    UVw[:p_in] = UVw[canon]
-    FUVw = np.where(FUVw == FUVc, facts.FUV, FUVw)
+    UVw, FUVw = unweld(UVw, FUVw)
     after = diagnose_layout(V, F, UVw, FUVw, resolution=resolution, padding=padding,
                             facts=layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap),
                             purpose=purpose)
@@ -311,6 +318,34 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                         info={"rows_in": p_in, "preset": preset if isinstance(preset, str) else "custom",
                               "resolution": resolution, "padding": padding, "neural": neural},
                         UV_in=UV, FUV_in=FUV)
+
+
+def _second_pass(Vn, F, UVw, FUVw, facts, actions, med, cfg, unweld, **kw):
+    """Read the repaired texture layout again, as it will be written (``unweld``), and repair the folds it shows
+    that the input did not.
+
+    Which sheet of an island is a shell and which a fold is read off the layout around it
+    (:func:`~neuraluv.layout.purpose.layout_intent`): a small reversed sheet next to damage can read as a
+    shell of its own, and as a fold once the damage beside it is repaired. One more pass repairs those (its
+    actions are marked ``"pass": 2``); folds the first pass could not repair are not tried again.
+    """
+    before = layout_intent(facts)
+    U, FU = unweld(UVw, FUVw)
+    lost = ~np.isfinite(facts.UV).all(1)
+    U[:len(lost)][lost] = np.nan  # rows without usable UVs, neutralised for the steps: still without (step 4's)
+    f2 = layout_facts(Vn, F, U, FU, normalized=True, min_overlap=facts.min_overlap)
+    it2 = layout_intent(f2)
+    new = (it2.fold | it2.degenerate) & ~(before.fold | before.degenerate) & facts.usable
+    if not new.any() or budget_spent(kw["deadline"]):
+        return UVw, FUVw
+    acts = {j: [] for j in range(f2.n_islands)}
+    UVw, FUVw = repair_shells(Vn, F, UVw, FUVw, f2, acts, med, cfg, only=new, **kw)
+    for j, a in acts.items():
+        lab = facts.label[f2.island_faces(j)]
+        lab = lab[lab >= 0]
+        if a and len(lab):
+            actions[int(np.bincount(lab).argmax())].extend({**x, "pass": 2} for x in a)
+    return UVw, FUVw
 
 
 #: An island's action when the time budget ran out before its repair (the summary counts them).

@@ -31,7 +31,7 @@ from neuraluv.topology import undirected_edges
 __all__ = ["repair_shells", "intended_overlaps", "twin_layers", "repair_twin_layers", "layer_sign", "twin_layers_hold"]
 
 
-def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural):
+def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural, only=None):
     """Steps 1-3 under the ``texture`` purpose: each shell's folds and UV-degenerate faces repaired locally, in
     the shell's own orientation, with the rows it shares with other shells of its island locked.
     A fold on rows that two stacked halves share (twin faces) is repaired in its half's layer
@@ -45,10 +45,13 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     with the whole shell free (locked rows kept); then, for a shell that shares no row with another, the
     shell is re-solved as a chart and fitted back where it was (with ``neural``); a cluster that still fails
     is left as it is and reported.
+    ``only``: a mask over faces, the problem faces to repair (default: all).
     Returns ``UV, FUV``.
     """
     it = layout_intent(facts)
     bad = it.fold | it.degenerate
+    if only is not None:  # (m,) bool: repair only these of the problem faces
+        bad = bad & only
     twin_done = np.zeros(0, np.int64)  # faces of folds repaired in twin layers, and their twins
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
@@ -89,6 +92,13 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 if out is not None:
                     out = out * sgn
                     twin_done = np.union1d(twin_done, info["faces"])
+                    if len(out) > len(work):  # a layer re-solved in pieces: its faces and their twins on new rows
+                        FUVw = info["FUV"]
+                        locked = np.r_[locked, np.zeros(len(out) - len(work), bool)]
+                        held = np.r_[held, np.zeros(len(out) - len(work), bool)]
+                        graph = IslandGraph(FUVw, shell, len(out), locked=locked)
+                    else:
+                        FUVw = info["FUV"]
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
             if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
                 new = len(work) + np.arange(len(split))
@@ -213,8 +223,10 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, **kw):
 
     Returns
     -------
-    UV : (p,2) float array or None (no layer had a fold, or one was not repaired)
-    info : dict, ``step`` and the last layer's details; ``faces``: the cluster's faces and their twins
+    UV : (p',2) float array or None (no layer had a fold, or one was not repaired); more rows than ``UV`` when
+        a layer was re-solved in pieces (the last resort of a layer whose rows only its twins share)
+    info : dict, ``step`` and the last layer's details; ``faces``: the cluster's faces and their twins; ``FUV``:
+        the texture indices, changed where a re-solved layer's pieces (and their twins) took new rows
     """
     island = np.sort(np.asarray(island, np.int64))
     layer, twin = twin_layers(F, FUV, island)
@@ -244,13 +256,33 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, **kw):
         if res is None:  # the whole layer free (its locked rows kept)
             rows = np.setdiff1d(np.unique(FUV[fl]), np.flatnonzero(locked))
             res, info = untangle_faces(Vn, F, work, FUV, fl, rows, scale, allowed, deadline=kw.get("deadline"))
+        if res is None and not locked.any() and kw.get("neural", True) and not budget_spent(kw.get("deadline")):
+            # the last resort of a layer whose rows only its twins share: re-solved as a chart, fitted back where
+            # it was; each twin takes its face's new rows, so the copies stay stacked
+            res_uv, res_fuv, info = resolve_as_chart(Vn, F, work, FUV, fl, scale, kw["config"], seed=kw["seed"],
+                                                     device=kw["device"], deadline=kw.get("deadline"))
+            if (face_dets_of(Vn, F, res_uv, res_fuv, fl) > 0).all():
+                FUV = _twins_follow(FUV, res_fuv, island, mine, twin)
+                out, done = res_uv * sign, done + 1
+                continue
         if res is None:
             return None, info
         out, done = res * sign, done + 1
     if not done:
         return None, info
     both = np.r_[at, twin[at][twin[at] >= 0]]
-    return out, {**info, "step": info["step"] + " (twin layers)", "faces": np.unique(island[both])}
+    return out, {**info, "step": info["step"] + " (twin layers)", "faces": np.unique(island[both]), "FUV": FUV}
+
+
+def _twins_follow(FUV_old, FUV_new, island, mine, twin):
+    """``FUV_new`` with every twin of a face of the layer (``mine``, over ``island``) on its face's new rows."""
+    FUV = FUV_new.copy()
+    for k in np.flatnonzero(~mine & (twin >= 0)):
+        t = twin[k]
+        if mine[t]:
+            new = dict(zip(FUV_old[island[t]].tolist(), FUV_new[island[t]].tolist()))
+            FUV[island[k]] = [new[r] for r in FUV_old[island[k]].tolist()]
+    return FUV
 
 
 def layer_sign(Vn, F, UV, FUV, faces):
