@@ -5,6 +5,12 @@ places islands on empty pages with them, and repair moves an island into the
 free space of a layout with them. The raster only proposes places; whether a
 place keeps the padding is always decided exactly on the float64 UVs.
 
+Where a mask fits is decided two ways, with the same answer: an FFT correlation
+of the page with the mask (:meth:`Page.free`, every spot at once), and, with numba
+installed (:data:`SCAN`), a compiled scan of the page's free runs that stops at the
+spot a placement rule wants (:meth:`Page.spot`; without numba it reads that spot
+off :meth:`Page.free`).
+
 Cells are indexed ``[row, col]`` = ``[v, u]``; a shape at ``cells`` cells per UV
 unit covers cell ``(r, c)`` of its mask when it covers UV cell
 ``(lo[1] + r, lo[0] + c)``.
@@ -17,7 +23,17 @@ import numpy as np
 from PIL import Image, ImageDraw
 from scipy import fft
 
-__all__ = ["rasterise", "disk", "dilate", "Page"]
+try:
+    from numba import njit
+except ImportError:  # numba is optional: Page.spot reads the spot off the FFT correlation
+    njit = None
+
+__all__ = ["rasterise", "disk", "dilate", "Page", "SCAN"]
+
+#: :meth:`Page.spot` scans the page's free runs with a numba kernel (when numba is installed) instead of
+#: reading the spot off :meth:`Page.free`'s FFT correlation: the same spot, found without correlating the
+#: whole page (packing real atlases: several times faster).
+SCAN = njit is not None
 
 
 def rasterise(rings, cells, *, lo=None, shape=None):
@@ -136,6 +152,8 @@ class Page:
         self._fshape = tuple(fft.next_fast_len(s, real=True) for s in self.shape)
         self._spec = None
         self.empty = True
+        self._runs = None  # free cells from each cell rightwards (Page.spot's scan), rows from _stale on outdated
+        self._stale = [0, self.shape[0]]
 
     def free(self, mask):
         """(H−h+1, W−w+1) bool: ``free[y, x]`` when ``mask`` at ``(y, x)`` covers no taken cell (empty if too large)."""
@@ -147,7 +165,10 @@ class Page:
             return np.ones((H - h + 1, W - w + 1), bool)
         if self._spec is None:
             self._spec = fft.rfft2(self.taken, self._fshape)
-        hit = fft.irfft2(self._spec * np.conj(fft.rfft2(mask.astype(self.dtype), self._fshape)), self._fshape)
+        spec = fft.rfft2(mask.astype(self.dtype), self._fshape)
+        np.conjugate(spec, out=spec)
+        spec *= self._spec
+        hit = fft.irfft2(spec, self._fshape, overwrite_x=True)
         return hit[:H - h + 1, :W - w + 1] < 0.5
 
     def add(self, mask, y, x):
@@ -160,4 +181,101 @@ class Page:
         sub = mask[y0 - int(y):y1 - int(y), x0 - int(x):x1 - int(x)]
         self.taken[y0:y1, x0:x1] = np.maximum(self.taken[y0:y1, x0:x1], sub)
         self._spec = None
+        self._stale = [min(self._stale[0], y0), max(self._stale[1], y1)]
         self.empty = self.empty and not sub.any()
+
+    def spot(self, mask, lo, hi, box=None):
+        """The free spot of ``mask`` a placement rule takes, among cells ``lo`` to ``hi`` (both included).
+
+        Parameters
+        ----------
+        mask : (h,w) bool array
+        lo, hi : (int, int)
+            The first and last ``(row, col)`` tried for the mask's cell ``(0, 0)``.
+        box : (int, int), optional
+            ``(W, H)``, the extent (columns, rows) of a layout from cell ``(0, 0)``: the spot that keeps
+            ``max(W, H, col + w, row + h)`` smallest, then ``row + col``, then ``row`` (None: the first
+            free spot in reading order).
+
+        Returns
+        -------
+        ``(row, col)``, or None when no spot is free
+
+        Examples
+        --------
+        >>> p = Page((6, 6)); p.add(np.ones((3, 2), bool), 0, 0)
+        >>> p.spot(np.ones((2, 2), bool), (0, 0), (4, 4)), p.spot(np.ones((2, 2), bool), (0, 0), (4, 4), box=(2, 3))
+        ((0, 2), (0, 2))
+        """
+        h, w = mask.shape
+        (y0, x0), (y1, x1) = lo, hi
+        y0, x0 = max(int(y0), 0), max(int(x0), 0)
+        y1, x1 = min(int(y1), self.shape[0] - h), min(int(x1), self.shape[1] - w)
+        if y1 < y0 or x1 < x0:
+            return None
+        if not SCAN:
+            free = self.free(mask)[y0:y1 + 1, x0:x1 + 1]
+            ys, xs = np.nonzero(free)
+            if not len(ys):
+                return None
+            ys, xs = ys + y0, xs + x0
+            if box is None:
+                return int(ys[0]), int(xs[0])  # nonzero lists the spots in reading order
+            side = np.maximum(np.maximum(box[0], xs + w), np.maximum(box[1], ys + h)).astype(np.int64)
+            n = self.shape[0] + self.shape[1]
+            j = int(np.argmin((side * 2 * n + ys + xs) * n + ys))
+            return int(ys[j]), int(xs[j])
+        if self._runs is None:
+            self._runs = np.zeros(self.shape, np.int32)
+        if self._stale[1] > self._stale[0]:
+            _free_runs(self.taken, self._runs, self._stale[0], self._stale[1])
+            self._stale = [self.shape[0], 0]
+        m = np.zeros((h, w + 2), np.int8)
+        m[:, 1:-1] = mask
+        rows, starts = np.nonzero(np.diff(m, axis=1) == 1)
+        ends = np.nonzero(np.diff(m, axis=1) == -1)[1]  # the same rows' runs, in the same order
+        n = ends - starts
+        by = n.argsort(kind="stable")[::-1]  # the longest runs first: they miss soonest
+        b = (-1, -1) if box is None else box
+        y, x = _scan(self._runs, rows[by].astype(np.int64), starts[by].astype(np.int64), n[by].astype(np.int64),
+                     y0, y1, x0, x1, h, w, int(b[0]), int(b[1]), box is not None)
+        return None if y < 0 else (int(y), int(x))
+
+
+def _free_runs(taken, runs, r0, r1):
+    """``runs[r, c]``: the free cells of row ``r`` from column ``c`` rightwards, for rows ``r0`` to ``r1 - 1``."""
+    for r in range(r0, r1):
+        run = 0
+        for c in range(taken.shape[1] - 1, -1, -1):
+            run = 0 if taken[r, c] > 0.5 else run + 1
+            runs[r, c] = run
+
+
+def _scan(runs, rows, starts, n, y0, y1, x0, x1, h, w, W, H, box):
+    """The spot :meth:`Page.spot` takes, or ``(-1, -1)``: the mask's runs (``n`` cells from ``(rows, starts)``)
+    tested against the page's free ``runs``; a run that misses skips every column up to the taken cell it met."""
+    by, bx, bside, bsum = -1, -1, 1 << 62, 1 << 62
+    for y in range(y0, y1 + 1):
+        if box and (max(W, H, y + h, x0 + w), y + x0) >= (bside, bsum):
+            break  # the key grows along rows and down columns: no later spot does better
+        x = x0
+        while x <= x1:
+            side = max(W, H, y + h, x + w)
+            if box and (side, y + x) >= (bside, bsum):
+                break
+            fits = True
+            for s in range(rows.shape[0]):
+                r = runs[y + rows[s], x + starts[s]]
+                if r < n[s]:
+                    fits, x = False, x + r + 1
+                    break
+            if fits:
+                if not box:
+                    return y, x
+                by, bx, bside, bsum = y, x, side, y + x
+                break
+    return by, bx
+
+
+if njit is not None:
+    _free_runs, _scan = njit(cache=True, nogil=True)(_free_runs), njit(cache=True, nogil=True)(_scan)

@@ -115,46 +115,43 @@ def _place(masks, grid, dil, border, rule, pages_max):
     (``rule="corner"``) or the one that keeps the layout's box smallest (``"box"``) is
     taken. Returns ``[(page, rotation, row, col)]`` or None when an island found no spot
     within ``pages_max`` pages.
+
+    The pages hold the placed masks dilated (clipped to the page), and a new mask is tested
+    undilated: the same test (a disk is symmetric), and the undilated mask inside the border
+    never reaches past the page, so a page is the ``grid``² raster itself (a fast FFT size
+    for :meth:`~neuraluv.layout.raster.Page.free`, no room for wrapping around it) and the
+    spot is :meth:`~neuraluv.layout.raster.Page.spot`'s.
     """
-    size = grid + 2 * dil  # a page with room for the dilation around its border
     pages, ext, out = [], [], []
     for cands in masks:
         best = None
-        grown = [dilate(m, dil) for m in cands]  # once per island and rotation, whatever the page
         for page in range(pages_max):
             if page == len(pages):
-                pages.append(Page((size, size)))
+                pages.append(Page((grid, grid)))
                 ext.append((0, 0))
             W, H = ext[page]
             for k, m in enumerate(cands):
                 h, w = m.shape
                 if h > grid - 2 * border or w > grid - 2 * border:
                     continue
-                free = pages[page].free(grown[k])[border:grid - border - h + 1, border:grid - border - w + 1]
+                at = pages[page].spot(m, (border, border), (grid - border - h, grid - border - w),
+                                      box=None if rule == "corner" else (W, H))
+                if at is None:
+                    continue
+                y, x = at
                 if rule == "corner":  # the first free spot in reading order
-                    j = int(np.argmax(free.ravel()))
-                    if not free.ravel()[j]:
-                        continue
-                    y, x = divmod(j, free.shape[1])
-                    ys, xs = np.array([y + border]), np.array([x + border])
-                    key = ys.astype(np.int64) * grid + xs
-                else:
-                    ys, xs = np.nonzero(free)
-                    if not len(ys):
-                        continue
-                    ys, xs = ys + border, xs + border
-                    side = np.maximum(np.maximum(W, xs + w), np.maximum(H, ys + h))
-                    key = (side.astype(np.int64) * 2 * grid + ys + xs) * grid + ys
-                j = int(np.argmin(key))
-                if best is None or key[j] < best[0]:
-                    best = (key[j], page, k, int(ys[j]), int(xs[j]))
+                    key = y * grid + x
+                else:  # the spot that keeps the layout's box smallest
+                    key = (max(W, x + w, H, y + h) * 2 * grid + y + x) * grid + y
+                if best is None or key < best[0]:
+                    best = (key, page, k, y, x)
             if best is not None:
                 break
         if best is None:
             return None
         _, page, k, y, x = best
         m = cands[k]
-        pages[page].add(m, dil + y, dil + x)
+        pages[page].add(dilate(m, dil), y - dil, x - dil)
         ext[page] = (max(ext[page][0], x + m.shape[1]), max(ext[page][1], y + m.shape[0]))
         out.append((page, k, y, x))
     return out
