@@ -152,7 +152,7 @@ class Page:
         self._fshape = tuple(fft.next_fast_len(s, real=True) for s in self.shape)
         self._spec = None
         self.empty = True
-        self._runs = None  # free cells from each cell rightwards (Page.spot's scan), rows from _stale on outdated
+        self._runs = None  # Page.spot's runs of free (or taken) cells rightwards; rows from _stale on outdated
         self._stale = [0, self.shape[0]]
 
     def free(self, mask):
@@ -243,17 +243,22 @@ class Page:
 
 
 def _free_runs(taken, runs, r0, r1):
-    """``runs[r, c]``: the free cells of row ``r`` from column ``c`` rightwards, for rows ``r0`` to ``r1 - 1``."""
+    """``runs[r, c]``: the free cells of row ``r`` from column ``c`` rightwards, or minus the taken ones when
+    cell ``(r, c)`` is taken, for rows ``r0`` to ``r1 - 1``."""
     for r in range(r0, r1):
         run = 0
         for c in range(taken.shape[1] - 1, -1, -1):
-            run = 0 if taken[r, c] > 0.5 else run + 1
+            if taken[r, c] > 0.5:
+                run = run - 1 if run < 0 else -1
+            else:
+                run = run + 1 if run > 0 else 1
             runs[r, c] = run
 
 
 def _scan(runs, rows, starts, n, y0, y1, x0, x1, h, w, W, H, box):
     """The spot :meth:`Page.spot` takes, or ``(-1, -1)``: the mask's runs (``n`` cells from ``(rows, starts)``)
-    tested against the page's free ``runs``; a run that misses skips every column up to the taken cell it met."""
+    tested against the page's ``runs``; a run that misses skips every column up to the taken cells it met and
+    past them."""
     by, bx, bside, bsum = -1, -1, 1 << 62, 1 << 62
     for y in range(y0, y1 + 1):
         if box and (max(W, H, y + h, x0 + w), y + x0) >= (bside, bsum):
@@ -267,7 +272,7 @@ def _scan(runs, rows, starts, n, y0, y1, x0, x1, h, w, W, H, box):
             for s in range(rows.shape[0]):
                 r = runs[y + rows[s], x + starts[s]]
                 if r < n[s]:
-                    fits, x = False, x + r + 1
+                    fits, x = False, x + (r + 1 if r > 0 else -r)
                     break
             if fits:
                 if not box:
