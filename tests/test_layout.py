@@ -161,7 +161,7 @@ def test_page_free_spots_are_exactly_where_a_mask_fits(size):
 
 @pytest.mark.parametrize("scan", [False, True])  # the FFT correlation, the compiled scan of free runs
 def test_page_spot_is_the_rules_best_free_spot(scan, monkeypatch):
-    import neuraluv.layout.raster as raster
+    from neuraluv.layout import raster
 
     if scan and not raster.SCAN:
         pytest.skip("numba is not installed")

@@ -230,15 +230,8 @@ class Page:
         if self._stale[1] > self._stale[0]:
             _free_runs(self.taken, self._runs, self._stale[0], self._stale[1])
             self._stale = [self.shape[0], 0]
-        m = np.zeros((h, w + 2), np.int8)
-        m[:, 1:-1] = mask
-        rows, starts = np.nonzero(np.diff(m, axis=1) == 1)
-        ends = np.nonzero(np.diff(m, axis=1) == -1)[1]  # the same rows' runs, in the same order
-        n = ends - starts
-        by = n.argsort(kind="stable")[::-1]  # the longest runs first: they miss soonest
         b = (-1, -1) if box is None else box
-        y, x = _scan(self._runs, rows[by].astype(np.int64), starts[by].astype(np.int64), n[by].astype(np.int64),
-                     y0, y1, x0, x1, h, w, int(b[0]), int(b[1]), box is not None)
+        y, x = _scan(self._runs, np.asarray(mask, bool), y0, y1, x0, x1, int(b[0]), int(b[1]), box is not None)
         return None if y < 0 else (int(y), int(x))
 
 
@@ -255,10 +248,30 @@ def _free_runs(taken, runs, r0, r1):
             runs[r, c] = run
 
 
-def _scan(runs, rows, starts, n, y0, y1, x0, x1, h, w, W, H, box):
-    """The spot :meth:`Page.spot` takes, or ``(-1, -1)``: the mask's runs (``n`` cells from ``(rows, starts)``)
-    tested against the page's ``runs``; a run that misses skips every column up to the taken cells it met and
-    past them."""
+def _mask_runs(mask):
+    """The runs of ``mask``'s rows, longest first (they miss soonest): ``(rows, starts, n)``, ``n`` cells each."""
+    h, w = mask.shape
+    rows, starts, n = np.empty(h * w, np.int64), np.empty(h * w, np.int64), np.empty(h * w, np.int64)
+    k = 0
+    for i in range(h):
+        c = 0
+        while c < w:
+            if mask[i, c]:
+                rows[k], starts[k] = i, c
+                while c < w and mask[i, c]:
+                    c += 1
+                n[k] = c - starts[k]
+                k += 1
+            c += 1
+    by = np.argsort(-n[:k], kind="mergesort")
+    return rows[by], starts[by], n[by]
+
+
+def _scan(runs, mask, y0, y1, x0, x1, W, H, box):
+    """The spot :meth:`Page.spot` takes, or ``(-1, -1)``: the mask's row runs tested against the page's ``runs``;
+    a run that misses skips every column up to the taken cells it met and past them."""
+    h, w = mask.shape
+    rows, starts, n = _mask_runs(mask)
     by, bx, bside, bsum = -1, -1, 1 << 62, 1 << 62
     for y in range(y0, y1 + 1):
         if box and (max(W, H, y + h, x0 + w), y + x0) >= (bside, bsum):
@@ -283,4 +296,5 @@ def _scan(runs, rows, starts, n, y0, y1, x0, x1, h, w, W, H, box):
 
 
 if njit is not None:
-    _free_runs, _scan = njit(cache=True, nogil=True)(_free_runs), njit(cache=True, nogil=True)(_scan)
+    _free_runs, _mask_runs = njit(cache=True, nogil=True)(_free_runs), njit(cache=True, nogil=True)(_mask_runs)
+    _scan = njit(cache=True, nogil=True)(_scan)

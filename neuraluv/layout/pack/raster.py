@@ -109,7 +109,7 @@ def island_outlines(uvs, faces):
 def _place(masks, grid, dil, border, rule, pages_max):
     """Greedy placement of rasterised islands (in the given order) on ``grid``² pages.
 
-    ``masks[i]`` lists island ``i``'s candidate masks (one per rotation). An island goes
+    ``masks`` yields, island by island, its candidate masks (one per rotation). An island goes
     where its mask, dilated by ``dil`` cells, covers no cell of a placed island and stays
     ``border`` cells inside the page; of the free spots the first in reading order
     (``rule="corner"``) or the one that keeps the layout's box smallest (``"box"``) is
@@ -234,14 +234,20 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
     turns = [np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]) for a in 2 * np.pi * np.arange(n_ang) / n_ang]
     rings, unions = island_outlines(uvs, faces) if outlines is None else outlines
 
+    rastered = {}  # cells -> the islands' (masks, origins) rasterised so far, in placement order
+
     def attempt(cells, rule, dil, pages_max):
-        masks, origin = [], []
-        for i in order:
-            ms = [rasterise([(e @ R, []) for e, _ in rings[i]], cells) for R in turns]
-            masks.append([m for m, _ in ms])
-            origin.append([o for _, o in ms])
-        where = _place(masks, grid, dil, border, rule, pages_max)
-        return None if where is None else (cells, rule, where, origin)
+        done = rastered.setdefault(cells, [])
+
+        def masks():  # rasterised as the placement reaches them (a placement that fails early needs few)
+            for j, i in enumerate(order):
+                if j == len(done):
+                    ms = [rasterise([(e @ R, []) for e, _ in rings[i]], cells) for R in turns]
+                    done.append(([m for m, _ in ms], [o for _, o in ms]))
+                yield done[j][0]
+
+        where = _place(masks(), grid, dil, border, rule, pages_max)
+        return None if where is None else (cells, rule, where, [o for _, o in done])
 
     def layout(found):
         """The placed islands' UVs, pages and union polygons (each island's union moved as its UVs are)."""
