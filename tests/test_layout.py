@@ -182,6 +182,28 @@ def test_page_spot_is_the_rules_best_free_spot(scan, monkeypatch):
         assert page.spot(mask, lo, hi, box=(W, H)) == want
 
 
+def test_triangles_union_from_boundary_loops_is_geos_union():
+    import shapely
+
+    from neuraluv.layout.overlap import _boundary_polygon, _polygons, triangles_union
+
+    n = 6  # a 5x5 grid of squares, the middle one left out (a hole)
+    UV = np.array([[x, y] for y in range(n) for x in range(n)], float)
+    F = [[y * n + x, y * n + x + 1, (y + 1) * n + x + 1] for y in range(n - 1) for x in range(n - 1)]
+    F += [[y * n + x, (y + 1) * n + x + 1, (y + 1) * n + x] for y in range(n - 1) for x in range(n - 1)]
+    F = np.array([f for k, f in enumerate(F) if k % 25 != 12])
+    rng = np.random.default_rng(0)
+    for uv, f, loops in [(UV + rng.normal(0, 0.05, UV.shape), F, True),  # one shell and a hole
+                         (UV, np.vstack([F, F[:1]]), False),  # a face twice: GEOS
+                         (np.vstack([UV, [[1.2, 1.2], [1.8, 1.2], [1.5, 1.8]]]), np.vstack([F, [[36, 37, 38]]]), False),  # over
+                         (np.vstack([UV, [[2.5, 2.5]]]), np.vstack([F, [[14, 15, 36]]]), True),  # in the hole
+                         (UV, F[:, ::-1], False)]:  # clockwise faces: GEOS
+        union = triangles_union(uv, f)[0]
+        assert union.is_valid and union.equals(shapely.union_all(_polygons(uv[f])))
+        assert (_boundary_polygon(uv, f) is not None) == loops
+    assert len(triangles_union(UV, F)[0].interiors) == 1
+
+
 def test_rasterise_covers_outline_and_keeps_holes_free_unless_filled_later():
     from shapely.geometry import Polygon, box
 
