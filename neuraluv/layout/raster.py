@@ -295,6 +295,13 @@ def _scan(runs, mask, y0, y1, x0, x1, W, H, box):
     return by, bx
 
 
+def _compiled(f):
+    """``f`` compiled by numba, kept in its on-disk cache (compiled in each process where no cache is writable)."""
+    try:
+        return njit(cache=True)(f)
+    except RuntimeError:  # numba found no writable cache directory
+        return njit(f)
+
+
 if njit is not None:
-    _free_runs, _mask_runs = njit(cache=True, nogil=True)(_free_runs), njit(cache=True, nogil=True)(_mask_runs)
-    _scan = njit(cache=True, nogil=True)(_scan)
+    _free_runs, _mask_runs, _scan = _compiled(_free_runs), _compiled(_mask_runs), _compiled(_scan)
