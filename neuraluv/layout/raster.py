@@ -17,23 +17,20 @@ unit covers cell ``(r, c)`` of its mask when it covers UV cell
 """
 from __future__ import annotations
 
+import functools
+import importlib.util
 import math
 
 import numpy as np
 from PIL import Image, ImageDraw
 from scipy import fft
 
-try:
-    from numba import njit
-except ImportError:  # numba is optional: Page.spot reads the spot off the FFT correlation
-    njit = None
-
 __all__ = ["rasterise", "disk", "dilate", "Page", "SCAN"]
 
-#: :meth:`Page.spot` scans the page's free runs with a numba kernel (when numba is installed) instead of
-#: reading the spot off :meth:`Page.free`'s FFT correlation: the same spot, found without correlating the
-#: whole page (packing real atlases: several times faster).
-SCAN = njit is not None
+#: :meth:`Page.spot` scans the page's free runs with a numba kernel (when numba is installed; imported and
+#: compiled on first use) instead of reading the spot off :meth:`Page.free`'s FFT correlation: the same
+#: spot, found without correlating the whole page (packing real atlases: several times faster).
+SCAN = importlib.util.find_spec("numba") is not None
 
 
 def rasterise(rings, cells, *, lo=None, shape=None):
@@ -227,11 +224,12 @@ class Page:
             return int(ys[j]), int(xs[j])
         if self._runs is None:
             self._runs = np.zeros(self.shape, np.int32)
+        free_runs, scan = _kernels()
         if self._stale[1] > self._stale[0]:
-            _free_runs(self.taken, self._runs, self._stale[0], self._stale[1])
+            free_runs(self.taken, self._runs, self._stale[0], self._stale[1])
             self._stale = [self.shape[0], 0]
         b = (-1, -1) if box is None else box
-        y, x = _scan(self._runs, np.asarray(mask, bool), y0, y1, x0, x1, int(b[0]), int(b[1]), box is not None)
+        y, x = scan(self._runs, np.asarray(mask, bool), y0, y1, x0, x1, int(b[0]), int(b[1]), box is not None)
         return None if y < 0 else (int(y), int(x))
 
 
@@ -295,13 +293,18 @@ def _scan(runs, mask, y0, y1, x0, x1, W, H, box):
     return by, bx
 
 
-def _compiled(f):
-    """``f`` compiled by numba, kept in its on-disk cache (compiled in each process where no cache is writable)."""
-    try:
-        return njit(cache=True)(f)
-    except RuntimeError:  # numba found no writable cache directory
-        return njit(f)
+@functools.cache
+def _kernels():
+    """``(_free_runs, _scan)`` compiled by numba (``_scan`` calling ``_mask_runs`` compiled), kept in numba's on-disk
+    cache where one is writable."""
+    from numba import njit
 
+    def compiled(f):
+        try:
+            return njit(cache=True)(f)
+        except RuntimeError:  # numba found no writable cache directory: compiled in each process
+            return njit(f)
 
-if njit is not None:
-    _free_runs, _mask_runs, _scan = _compiled(_free_runs), _compiled(_mask_runs), _compiled(_scan)
+    global _mask_runs
+    _mask_runs = compiled(_mask_runs)  # the global _scan reads, compiled before _scan is
+    return compiled(_free_runs), compiled(_scan)
