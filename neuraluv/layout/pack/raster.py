@@ -163,7 +163,8 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
 
     Each island is rasterised on a ``grid``² page (cells of ``resolution / grid`` texels),
     dilated by the padding, and placed greedily at a free spot
-    (:class:`~neuraluv.layout.raster.Page`), trying ``angles`` rotations of it (proper
+    (:meth:`~neuraluv.layout.raster.Page.spot`: a compiled scan with numba, an FFT
+    correlation without; the same spots), trying ``angles`` rotations of it (proper
     rotations only). Two placement rules are tried — the first free spot in reading
     order (bottom-left fill) and the spot that keeps the layout's box smallest — and
     the common scale is searched for each (:func:`largest_fit`: from a typical fill,
