@@ -5,7 +5,7 @@ import numpy as np
 import shapely
 
 from neuraluv.layout.overlap import outline_rings, triangles_union
-from neuraluv.layout.pack import FLOAT32_SLACK, START_FILL
+from neuraluv.layout.pack import FLOAT32_SLACK, RASTERS_KEPT, START_FILL
 from neuraluv.layout.pack.result import PackResult, min_gap, uv_area
 from neuraluv.layout.raster import Page, dilate, rasterise
 
@@ -158,7 +158,7 @@ def _place(masks, grid, dil, border, rule, pages_max):
 
 
 def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, angles=8, grid=256,
-                tolerance=0.01, weights=None, floor=None, outlines=None):
+                tolerance=0.01, weights=None, floor=None, outlines=None, rasters=None):
     """Pack islands by their rasterised shapes, largest first, at the largest common scale that fits.
 
     Each island is rasterised on a ``grid``² page (cells of ``resolution / grid`` texels),
@@ -200,6 +200,10 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
         that cannot beat an earlier one costs little.
     outlines : tuple, optional
         :func:`island_outlines` of the islands, when the caller packs them several times.
+    rasters : dict, optional
+        Filled with the islands' rasterised turns per scale and number of turns (the last
+        :data:`~neuraluv.layout.pack.RASTERS_KEPT` met), to pass to the next packing of the
+        same islands (later trials search from the same scale).
 
     Returns
     -------
@@ -235,20 +239,23 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
     turns = [np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]) for a in 2 * np.pi * np.arange(n_ang) / n_ang]
     rings, unions = island_outlines(uvs, faces) if outlines is None else outlines
 
-    rastered = {}  # cells -> the islands' (masks, origins) rasterised so far, in placement order
+    rasters = {} if rasters is None else rasters  # (cells, turns) -> {island: (masks, origins)}
 
     def attempt(cells, rule, dil, pages_max):
-        done = rastered.setdefault(cells, [])
+        if (cells, n_ang) not in rasters and len(rasters) >= RASTERS_KEPT:
+            del rasters[next(iter(rasters))]  # the scale met longest ago
+        done, origin = rasters.setdefault((cells, n_ang), {}), []
 
         def masks():  # rasterised as the placement reaches them (a placement that fails early needs few)
-            for j, i in enumerate(order):
-                if j == len(done):
+            for i in order:
+                if i not in done:
                     ms = [rasterise([(e @ R, []) for e, _ in rings[i]], cells) for R in turns]
-                    done.append(([m for m, _ in ms], [o for _, o in ms]))
-                yield done[j][0]
+                    done[i] = ([m for m, _ in ms], [o for _, o in ms])
+                origin.append(done[i][1])
+                yield done[i][0]
 
         where = _place(masks(), grid, dil, border, rule, pages_max)
-        return None if where is None else (cells, rule, where, [o for _, o in done])
+        return None if where is None else (cells, rule, where, origin)
 
     def layout(found):
         """The placed islands' UVs, pages and union polygons (each island's union moved as its UVs are)."""
