@@ -24,7 +24,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet torch==2.13.0
-	$(BIN)/pip install --quiet -e ".[test,docs,render,sweep]"
+	$(BIN)/pip install --quiet -e ".[test,docs,render,sweep,fast]"
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -10,7 +10,7 @@ def test_environment_yml_matches_pyproject():
 
     pp = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     extras = pp["optional-dependencies"]
-    wanted = set(pp["dependencies"]).union(*(extras[e] for e in ("render", "sweep", "test", "docs")))
+    wanted = set(pp["dependencies"]).union(*(extras[e] for e in ("render", "sweep", "fast", "test", "docs")))
     env = yaml.safe_load((ROOT / "environment.yml").read_text())
     pip = [d for d in env["dependencies"] if isinstance(d, dict)][0]["pip"]
     pip = [p for p in pip if not p.startswith("-e")]

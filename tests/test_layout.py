@@ -159,6 +159,51 @@ def test_page_free_spots_are_exactly_where_a_mask_fits(size):
     assert Page((3, 3)).free(np.ones((4, 1), bool)).size == 0  # larger than the page: nowhere
 
 
+@pytest.mark.parametrize("scan", [False, True])  # the FFT correlation, the compiled scan of free runs
+def test_page_spot_is_the_rules_best_free_spot(scan, monkeypatch):
+    from neuraluv.layout import raster
+
+    if scan and not raster.SCAN:
+        pytest.skip("numba is not installed")
+    monkeypatch.setattr(raster, "SCAN", scan)
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        taken = rng.random((60, 50)) < rng.choice([0.005, 0.03, 0.2])
+        mask = rng.random((rng.integers(1, 9), rng.integers(1, 9))) < 0.7
+        page = raster.Page(taken.shape)
+        page.add(taken, 0, 0)
+        h, w = mask.shape
+        lo, hi = (2, 3), (55 - h, 47 - w)
+        free = [(y, x) for y in range(lo[0], hi[0] + 1) for x in range(lo[1], hi[1] + 1)
+                if not (taken[y:y + h, x:x + w] & mask).any()]
+        W, H = rng.integers(0, 50, 2)
+        want = min(free, key=lambda p: (max(W, H, p[1] + w, p[0] + h), p[0] + p[1], p[0])) if free else None
+        assert page.spot(mask, lo, hi) == (free[0] if free else None)
+        assert page.spot(mask, lo, hi, box=(W, H)) == want
+
+
+def test_triangles_union_from_boundary_loops_is_geos_union():
+    import shapely
+
+    from neuraluv.layout.overlap import _boundary_polygon, _polygons, triangles_union
+
+    n = 6  # a 5x5 grid of squares, the middle one left out (a hole)
+    UV = np.array([[x, y] for y in range(n) for x in range(n)], float)
+    F = [[y * n + x, y * n + x + 1, (y + 1) * n + x + 1] for y in range(n - 1) for x in range(n - 1)]
+    F += [[y * n + x, (y + 1) * n + x + 1, (y + 1) * n + x] for y in range(n - 1) for x in range(n - 1)]
+    F = np.array([f for k, f in enumerate(F) if k % 25 != 12])
+    rng = np.random.default_rng(0)
+    for uv, f, loops in [(UV + rng.normal(0, 0.05, UV.shape), F, True),  # one shell and a hole
+                         (UV, np.vstack([F, F[:1]]), False),  # a face twice: GEOS
+                         (np.vstack([UV, [[1.2, 1.2], [1.8, 1.2], [1.5, 1.8]]]), np.vstack([F, [[36, 37, 38]]]), False),  # over
+                         (np.vstack([UV, [[2.5, 2.5]]]), np.vstack([F, [[14, 15, 36]]]), True),  # in the hole
+                         (UV, F[:, ::-1], False)]:  # clockwise faces: GEOS
+        union = triangles_union(uv, f)[0]
+        assert union.is_valid and union.equals(shapely.union_all(_polygons(uv[f])))
+        assert (_boundary_polygon(uv, f) is not None) == loops
+    assert len(triangles_union(UV, F)[0].interiors) == 1
+
+
 def test_rasterise_covers_outline_and_keeps_holes_free_unless_filled_later():
     from shapely.geometry import Polygon, box
 

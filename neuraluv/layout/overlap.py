@@ -258,15 +258,59 @@ def triangles_union(UV, F):
     union : shapely geometry (exact polygon union, GEOS)
     total : float, ``Σ_t |A_t|`` (equals ``union.area`` when no two triangles overlap)
 
+    Notes
+    -----
+    When every triangle is counter-clockwise and the boundary edges (those whose reverse no
+    triangle uses) chain into one counter-clockwise loop and clockwise ones that make a valid
+    polygon :math:`P`, the union is :math:`P`, built from the loops without the overlay
+    (about 20 times faster): the triangles' indicators sum to the winding number of their
+    boundary chain (shared edges cancel), which is :math:`1_P`, so they cover :math:`P` once
+    and nothing else. Otherwise the union is GEOS's. The same point set either way; the rings
+    may start at another vertex, or run the other way, than GEOS's.
+
     Examples
     --------
     >>> U, t = triangles_union(np.array([[0., 0], [1, 0], [0, 1], [1, 1]]), np.array([[0, 1, 2], [1, 3, 2]]))
     >>> round(U.area, 12), t
     (1.0, 1.0)
     """
-    tri = np.asarray(UV, float)[np.asarray(F, np.int64)]
-    total = float(np.abs(signed_areas_2d(UV, F)).sum())
-    return shapely.union_all(_polygons(tri)), total
+    UV, F = np.asarray(UV, float), np.asarray(F, np.int64)
+    areas = signed_areas_2d(UV, F)
+    total = float(np.abs(areas).sum())
+    union = _boundary_polygon(UV, F) if len(F) and (areas > 0).all() else None
+    return (shapely.union_all(_polygons(UV[F])) if union is None else union), total
+
+
+def _boundary_polygon(UV, F):
+    """The polygon bounded by the boundary edges of counter-clockwise triangles, or None when they do not chain
+    into one counter-clockwise loop and clockwise ones making a valid polygon (see :func:`triangles_union`)."""
+    e = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)  # directed edges
+    key = e[:, 0] * len(UV) + e[:, 1]
+    if len(np.unique(key)) < len(key):  # an edge used twice the same way: the faces are not oriented alike
+        return None
+    b = e[~np.isin(key, e[:, 1] * len(UV) + e[:, 0])]
+    nxt = np.full(len(UV), -1)
+    nxt[b[:, 0]] = b[:, 1]
+    if len(b) < 3 or np.count_nonzero(nxt >= 0) < len(b):  # two boundary edges leave one vertex
+        return None
+    seen, shells, holes = np.zeros(len(UV), bool), [], []
+    for s in b[:, 0]:
+        if seen[s]:
+            continue
+        ring, v = [s], nxt[s]
+        seen[s] = True
+        while v != s:
+            if v < 0 or seen[v]:
+                return None
+            seen[v] = True
+            ring.append(v)
+            v = nxt[v]
+        r = UV[ring]
+        (shells if shapely.LinearRing(r).is_ccw else holes).append(r)
+    if len(shells) != 1:
+        return None
+    poly = shapely.Polygon(shells[0], holes)
+    return poly if poly.is_valid else None
 
 
 def outline_rings(shape, holes=False):

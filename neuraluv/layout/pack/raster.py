@@ -5,7 +5,7 @@ import numpy as np
 import shapely
 
 from neuraluv.layout.overlap import outline_rings, triangles_union
-from neuraluv.layout.pack import FLOAT32_SLACK, START_FILL
+from neuraluv.layout.pack import FLOAT32_SLACK, RASTERS_KEPT, START_FILL
 from neuraluv.layout.pack.result import PackResult, min_gap, uv_area
 from neuraluv.layout.raster import Page, dilate, rasterise
 
@@ -109,64 +109,62 @@ def island_outlines(uvs, faces):
 def _place(masks, grid, dil, border, rule, pages_max):
     """Greedy placement of rasterised islands (in the given order) on ``grid``² pages.
 
-    ``masks[i]`` lists island ``i``'s candidate masks (one per rotation). An island goes
+    ``masks`` yields, island by island, its candidate masks (one per rotation). An island goes
     where its mask, dilated by ``dil`` cells, covers no cell of a placed island and stays
     ``border`` cells inside the page; of the free spots the first in reading order
     (``rule="corner"``) or the one that keeps the layout's box smallest (``"box"``) is
     taken. Returns ``[(page, rotation, row, col)]`` or None when an island found no spot
     within ``pages_max`` pages.
+
+    The pages hold the placed masks dilated (clipped to the page), and a new mask is tested
+    undilated: the same test (a disk is symmetric), and the undilated mask inside the border
+    never reaches past the page, so a page is the ``grid``² raster itself (a fast FFT size
+    for :meth:`~neuraluv.layout.raster.Page.free`, no room for wrapping around it) and the
+    spot is :meth:`~neuraluv.layout.raster.Page.spot`'s.
     """
-    size = grid + 2 * dil  # a page with room for the dilation around its border
     pages, ext, out = [], [], []
     for cands in masks:
         best = None
-        grown = [dilate(m, dil) for m in cands]  # once per island and rotation, whatever the page
         for page in range(pages_max):
             if page == len(pages):
-                pages.append(Page((size, size)))
+                pages.append(Page((grid, grid)))
                 ext.append((0, 0))
             W, H = ext[page]
             for k, m in enumerate(cands):
                 h, w = m.shape
                 if h > grid - 2 * border or w > grid - 2 * border:
                     continue
-                free = pages[page].free(grown[k])[border:grid - border - h + 1, border:grid - border - w + 1]
+                at = pages[page].spot(m, (border, border), (grid - border - h, grid - border - w),
+                                      box=None if rule == "corner" else (W, H))
+                if at is None:
+                    continue
+                y, x = at
                 if rule == "corner":  # the first free spot in reading order
-                    j = int(np.argmax(free.ravel()))
-                    if not free.ravel()[j]:
-                        continue
-                    y, x = divmod(j, free.shape[1])
-                    ys, xs = np.array([y + border]), np.array([x + border])
-                    key = ys.astype(np.int64) * grid + xs
-                else:
-                    ys, xs = np.nonzero(free)
-                    if not len(ys):
-                        continue
-                    ys, xs = ys + border, xs + border
-                    side = np.maximum(np.maximum(W, xs + w), np.maximum(H, ys + h))
-                    key = (side.astype(np.int64) * 2 * grid + ys + xs) * grid + ys
-                j = int(np.argmin(key))
-                if best is None or key[j] < best[0]:
-                    best = (key[j], page, k, int(ys[j]), int(xs[j]))
+                    key = y * grid + x
+                else:  # the spot that keeps the layout's box smallest
+                    key = (max(W, x + w, H, y + h) * 2 * grid + y + x) * grid + y
+                if best is None or key < best[0]:
+                    best = (key, page, k, y, x)
             if best is not None:
                 break
         if best is None:
             return None
         _, page, k, y, x = best
         m = cands[k]
-        pages[page].add(m, dil + y, dil + x)
+        pages[page].add(dilate(m, dil), y - dil, x - dil)
         ext[page] = (max(ext[page][0], x + m.shape[1]), max(ext[page][1], y + m.shape[0]))
         out.append((page, k, y, x))
     return out
 
 
 def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None, angles=8, grid=256,
-                tolerance=0.01, weights=None, floor=None, outlines=None):
+                tolerance=0.01, weights=None, floor=None, outlines=None, rasters=None):
     """Pack islands by their rasterised shapes, largest first, at the largest common scale that fits.
 
     Each island is rasterised on a ``grid``² page (cells of ``resolution / grid`` texels),
     dilated by the padding, and placed greedily at a free spot
-    (:class:`~neuraluv.layout.raster.Page`), trying ``angles`` rotations of it (proper
+    (:meth:`~neuraluv.layout.raster.Page.spot`: a compiled scan with numba, an FFT
+    correlation without; the same spots), trying ``angles`` rotations of it (proper
     rotations only). Two placement rules are tried — the first free spot in reading
     order (bottom-left fill) and the spot that keeps the layout's box smallest — and
     the common scale is searched for each (:func:`largest_fit`: from a typical fill,
@@ -202,6 +200,10 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
         that cannot beat an earlier one costs little.
     outlines : tuple, optional
         :func:`island_outlines` of the islands, when the caller packs them several times.
+    rasters : dict, optional
+        Filled with the islands' rasterised turns per scale and number of turns (the last
+        :data:`~neuraluv.layout.pack.RASTERS_KEPT` met), to pass to the next packing of the
+        same islands (later trials search from the same scale).
 
     Returns
     -------
@@ -237,13 +239,22 @@ def raster_pack(uvs, faces, *, padding=4.0, resolution=1024, texel_density=None,
     turns = [np.array([[np.cos(a), np.sin(a)], [-np.sin(a), np.cos(a)]]) for a in 2 * np.pi * np.arange(n_ang) / n_ang]
     rings, unions = island_outlines(uvs, faces) if outlines is None else outlines
 
+    rasters = {} if rasters is None else rasters  # (cells, turns) -> {island: (masks, origins)}
+
     def attempt(cells, rule, dil, pages_max):
-        masks, origin = [], []
-        for i in order:
-            ms = [rasterise([(e @ R, []) for e, _ in rings[i]], cells) for R in turns]
-            masks.append([m for m, _ in ms])
-            origin.append([o for _, o in ms])
-        where = _place(masks, grid, dil, border, rule, pages_max)
+        if (cells, n_ang) not in rasters and len(rasters) >= RASTERS_KEPT:
+            del rasters[next(iter(rasters))]  # the scale met longest ago
+        done, origin = rasters.setdefault((cells, n_ang), {}), []
+
+        def masks():  # rasterised as the placement reaches them (a placement that fails early needs few)
+            for i in order:
+                if i not in done:
+                    ms = [rasterise([(e @ R, []) for e, _ in rings[i]], cells) for R in turns]
+                    done[i] = ([m for m, _ in ms], [o for _, o in ms])
+                origin.append(done[i][1])
+                yield done[i][0]
+
+        where = _place(masks(), grid, dil, border, rule, pages_max)
         return None if where is None else (cells, rule, where, origin)
 
     def layout(found):

@@ -110,7 +110,8 @@ def _best_of_trials(uvs, faces, *, padding, resolution, texel_density, trials, r
         best.trials = n
         return best
     outlines = island_outlines(uvs, faces)  # once for every trial
-    kw = dict(padding=padding, resolution=resolution, texel_density=texel_density, outlines=outlines)
+    kw = dict(padding=padding, resolution=resolution, texel_density=texel_density, outlines=outlines,
+              rasters={})  # the rasterised islands too
     fixed = texel_density is not None  # pages at a fixed scale: every setting is packed in full
     best, err, n = None, None, 0
     settings = list(RASTER_TRIALS[:trials])
