@@ -408,3 +408,22 @@ def test_a_fold_on_rows_that_stacked_copies_share_is_repaired_locally():
     assert res.after.ok and res.after.validation["valid"]
     assert [a["step"] for i in res.islands for a in i["actions"]] == ["untangle+polish"]
     assert 1.0 - res.changed_faces.mean() >= 0.8
+
+
+def test_a_fold_on_the_seam_of_mirrored_halves_is_repaired_across_them():
+    # the halves of a mirror modifier share the mirror line's rows: a row of that line pushed along it folds a
+    # face of each half. Both halves' rows are freed, each face kept in its own half's orientation; the seam
+    # stays one row per vertex (no split) and the rest of the layout is untouched.
+    V, F, UV = mirrored_strip(n=10, rows=8)
+    mid = np.flatnonzero((V[:, 0] == 0) & (V[:, 1] == 4))
+    bad = UV.copy()
+    bad[mid] += [0.0, 0.15]
+    it = layout_intent(layout_facts(V, F, bad, F))
+    assert it.fold.sum() == 2
+    res = repair_layout(V, F, bad, F, "test", purpose="texture", device="cpu")
+    assert res.after.ok and res.after.validation["valid"]
+    assert [a["step"] for i in res.islands for a in i["actions"]] == ["untangle+polish (across shells)"]
+    assert np.array_equal(res.FUV, F) and res.changed_faces.mean() <= 0.1
+    after = layout_facts(V, F, res.UV, res.FUV)
+    f0 = layout_facts(V, F, UV, F)
+    assert np.array_equal(np.sign(after.det), np.sign(f0.det))  # each half keeps its orientation

@@ -71,15 +71,18 @@ class IslandGraph:
         return self.faces[(self.M @ rows_mask.astype(float)) > 0]
 
 
-def region_overlaps(UV, FUV, region, island, allowed=None):
+def region_overlaps(UV, FUV, region, island, allowed=None, group=None):
     """Number of overlapping triangle pairs with a face in ``region`` among the ``island``'s faces (exact).
 
     ``allowed``: a set of face pairs ``(i, j)``, ``i < j``, that overlapped before on purpose (a texture
     layout's shell may lie over itself); they are not counted. Nor are twins (two faces on the same three rows:
-    copies stacked on purpose, which no move of their rows can part).
+    copies stacked on purpose, which no move of their rows can part). With ``group`` ((m,) int array), only
+    pairs of one group count (the shells of an island stacked on each other overlap on purpose).
     """
     a, b = overlap_pairs(UV, FUV, island, region)
     twin = (np.sort(FUV[a], 1) == np.sort(FUV[b], 1)).all(1)
+    if group is not None:
+        twin |= group[a] != group[b]
     a, b = a[~twin], b[~twin]
     if not allowed:
         return len(a)
@@ -231,7 +234,8 @@ def _try_neural(Vn, F, UV, FUV, region, free, scale, config, seed, device, deadl
 
 
 def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed=0, device="cpu", deadline=None,
-                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1, allowed=None):
+                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1, allowed=None,
+                   sign=None, group=None):
     """Repair one fold cluster in the smallest region that works (see the module docstring).
 
     Parameters
@@ -266,6 +270,10 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     allowed : set of (int, int), optional
         Face pairs of the island that overlap on purpose (:func:`region_overlaps`): a repaired
         region may keep them, but makes no other overlap.
+    sign, group : (m,) arrays, optional
+        For a region across shells of both orientations (two mirrored halves joined at a seam): -1 where a
+        face is valid reversed (:meth:`~neuraluv.repair.untangle.RegionEnergy.build`), and each face's shell
+        (only overlaps within a shell count). No neural step and no growth past the first valid region then.
 
     Returns
     -------
@@ -278,6 +286,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     t0 = time.perf_counter()
     n_rows = len(UV)
     island = graph.faces
+    if sign is not None:  # the distortion measures take every reversed face for a fold: nothing to grow by
+        neural, max_extra_rings = False, 0
+    sgn = np.ones(len(F)) if sign is None else np.asarray(sign, float)
     seed_rows = np.zeros(n_rows, bool)
     seed_rows[np.unique(FUV[cluster])] = True
     seed_rows &= ~graph.locked
@@ -299,16 +310,16 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         region = region[face_areas(Vn, F[region]) > DEGENERATE_3D_AREA]  # no 3D area: no distortion to untangle
         sc = local_scale(rows)
         rest = np.setdiff1d(cluster, region)  # cluster faces with no free row: they stay as they are
-        if len(rest) and not (face_dets(Vn, F[rest], UV, FUV[rest]) > 0).all():
+        if len(rest) and not (face_dets(Vn, F[rest], UV, FUV[rest]) * sgn[rest] > 0).all():
             return None, {"region": region, "free": free, "untangle": {"ok": False}, "overlaps": -1, "scale": sc,
                           "why": "cluster faces outside the region are still folded"}
-        out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc, deadline=deadline)
-        ov = region_overlaps(out, FUV, region, island, allowed) if uinfo["ok"] else -1
+        out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc, deadline=deadline, sign=sign)
+        ov = region_overlaps(out, FUV, region, island, allowed, group) if uinfo["ok"] else -1
         det = {"region": region, "free": free, "untangle": uinfo, "overlaps": ov, "scale": sc}
         if not uinfo["ok"]:
             return None, det
-        out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc, deadline=deadline)
-        ov2 = region_overlaps(out2, FUV, region, island, allowed)
+        out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc, deadline=deadline, sign=sign)
+        ov2 = region_overlaps(out2, FUV, region, island, allowed, group)
         det["polish"] = pinfo
         if ov == 0:
             return (out if ov2 else out2), det  # the polish moved a triangle over another: keep the untangled map

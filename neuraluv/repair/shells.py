@@ -28,7 +28,11 @@ from neuraluv.repair.local import (
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.topology import undirected_edges
 
-__all__ = ["repair_shells", "intended_overlaps", "twin_layers", "repair_twin_layers", "layer_sign", "twin_layers_hold"]
+#: A fold on a seam between shells is repaired across them in regions of at most this share of the island (a
+#: seam's fold is local; larger regions of two stacked shells seldom come out without overlaps, and cost seconds).
+ACROSS_FRACTION = 0.1
+
+__all__ = ["repair_shells", "repair_across_shells", "intended_overlaps", "twin_layers", "repair_twin_layers", "layer_sign", "twin_layers_hold"]
 
 
 def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural, only=None):
@@ -99,6 +103,12 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                         graph = IslandGraph(FUVw, shell, len(out), locked=locked)
                     else:
                         FUVw = info["FUV"]
+            if out is None and locked[np.unique(FUVw[cl])].any() and not budget_spent(deadline):
+                # a fold on the seam of two shells that share their rows there (mirrored halves joined along the
+                # mirror line): repaired with both shells' rows free, each face in its own shell's orientation
+                out, info = repair_across_shells(Vn, F, work * sgn, FUVw, facts, it, i, cl, bad, dens, **kw)
+                if out is not None:
+                    out = out * sgn
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
             if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
                 new = len(work) + np.arange(len(split))
@@ -142,6 +152,44 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                                  **({"mirrored_shell": True} if flip else {})})
         UVw = work * np.array([-1.0, 1.0]) if flip else work
     return UVw, FUVw
+
+
+def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale, **kw):
+    """Repair a fold on rows that shells of one island share (a seam), with the rows of every shell free.
+
+    Each face is untangled and polished in its own shell's orientation (``sign``,
+    :meth:`~neuraluv.repair.untangle.RegionEnergy.build`), only overlaps within a shell count, and rows of
+    faces in no shell (a palette collapse, faces without 3D area) stay where they are.
+
+    Parameters
+    ----------
+    Vn : (n,3) float array
+    F, FUV : (m,3) int arrays
+    UV : (p,2) float array, the layout as it is (not a shell's orientation)
+    facts, it : :class:`~neuraluv.layout.facts.LayoutFacts`, :class:`~neuraluv.layout.purpose.LayoutIntent`
+    island : int
+    cluster : int array, the fold's faces
+    bad : (m,) bool array, the problem faces (for the overlaps that were there on purpose)
+    scale : float, the island's texel density
+    **kw : for :func:`~neuraluv.repair.local.repair_cluster`
+
+    Returns
+    -------
+    UV or None, info (as :func:`~neuraluv.repair.local.repair_cluster`; ``step`` says "(across shells)")
+    """
+    faces = facts.island_faces(island)
+    inside = faces[it.shell[faces] >= 0]
+    sign = np.zeros(len(F))
+    sign[inside] = it.shell_sign[it.shell[inside]]
+    locked = np.zeros(len(UV), bool)
+    locked[np.unique(FUV[np.setdiff1d(faces, inside)])] = True
+    graph = IslandGraph(FUV, inside, len(UV), locked=locked)
+    allowed = intended_overlaps(UV * 1.0, FUV, inside, bad, IslandGraph(FUV, inside, len(UV)))
+    out, info = repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, **{**kw, "allowed": allowed},
+                               sign=sign, group=it.shell, max_fraction=ACROSS_FRACTION)
+    if out is not None:
+        info = {**info, "step": info["step"] + " (across shells)"}
+    return out, info
 
 
 def intended_overlaps(UV, FUV, shell, bad, graph, rings=3):

@@ -84,11 +84,19 @@ class RegionEnergy:
     slot: np.ndarray
 
     @classmethod
-    def build(cls, V, F, FUV, faces, free, scale):
-        """Region of ``faces`` (indices into ``F``) with movable rows ``free``, measured at ``scale``."""
+    def build(cls, V, F, FUV, faces, free, scale, sign=None):
+        """Region of ``faces`` (indices into ``F``) with movable rows ``free``, measured at ``scale``.
+
+        ``sign`` ((m,) array over all faces, optional): -1 where a face is valid reversed (a face of a mirrored
+        shell), measured against its 3D triangle reflected in its plane (``K``'s second column negated: the
+        same singular values, ``det J`` negated), so that one region may hold faces of both orientations.
+        """
         faces = np.asarray(faces, np.int64)
         P3 = np.asarray(V, float)[np.asarray(F, np.int64)[faces].reshape(-1)]
         K, A = local_frames(P3, np.arange(3 * len(faces)).reshape(-1, 3))
+        if sign is not None:
+            K = K.copy()
+            K[:, :, 1] *= np.where(np.asarray(sign)[faces] < 0, -1.0, 1.0)[:, None]
         if not (np.isfinite(K).all() and (A > 0).all()):
             bad = int((~(np.isfinite(K).all(axis=(1, 2)) & (A > 0))).sum())
             raise ValueError(f"{bad} degenerate 3D faces in the region: nothing to measure distortion against")
@@ -166,7 +174,7 @@ def _chi(D, eps):
         return np.where(D >= 0, 0.5 * (D + r), eps * eps / (2.0 * (r - D)))
 
 
-def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inner=300, deadline=None):
+def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inner=300, deadline=None, sign=None):
     """Untangle a folded region by moving only the ``free`` rows (Garanzha et al. 2021).
 
     Parameters
@@ -189,6 +197,8 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     deadline : float, optional
         ``time.perf_counter()`` value after which no further ε-step starts (``ok`` tells whether the map so far
         is fold-free).
+    sign : (m,) float array, optional
+        -1 for faces that are to be valid reversed (:meth:`RegionEnergy.build`).
 
     Returns
     -------
@@ -224,7 +234,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     True
     """
     U0 = np.asarray(UV, float)
-    R = RegionEnergy.build(V, F, FUV, faces, free, scale)
+    R = RegionEnergy.build(V, F, FUV, faces, free, scale, sign)
 
     def energy(x, eps):
         U = R.place(U0, x)
@@ -264,7 +274,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
 
 
 def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J=1e-4, eps=1e-3, alpha=1.0,
-           tol=1e-9, deadline=None):
+           tol=1e-9, deadline=None, sign=None):
     """Lower the stable symmetric Dirichlet objective by moving only the ``free`` rows, never folding a face.
 
     Parameters
@@ -282,6 +292,8 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
         L-BFGS iterations and memory.
     deadline : float, optional
         ``time.perf_counter()`` value after which the polish stops (every accepted step is valid).
+    sign : (m,) float array, optional
+        -1 for faces valid reversed (:meth:`RegionEnergy.build`).
     eps_J, eps, alpha : float
         The paper's C² switch point, barrier margin and barrier weight.
     tol : float
@@ -316,7 +328,7 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
     (True, 0)
     """
     U0 = np.asarray(UV, float)
-    R = RegionEnergy.build(V, F, FUV, faces, free, scale)
+    R = RegionEnergy.build(V, F, FUV, faces, free, scale, sign)
     if not (R.dets(U0) > 0).all() or not len(R.free):
         return U0.copy(), {"iterations": 0, "energy_before": None, "energy_after": None, "converged": False}
 
