@@ -38,8 +38,8 @@ from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.repair.untangle import RegionEnergy, budget_spent, polish, untangle
 from neuraluv.solver.config import get_config
 
-__all__ = ["RING_SCHEDULE", "FAR_QUANTILE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region", "region_esd",
-           "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces", "with_stretched_neighbours",
+__all__ = ["RING_SCHEDULE", "FAR_QUANTILE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region",
+           "region_esd", "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces", "with_stretched_neighbours",
            "resolve_as_chart"]
 
 #: Ring counts tried around a fold, in order.
@@ -80,10 +80,10 @@ def region_overlaps(UV, FUV, region, island, allowed=None, group=None):
     pairs of one group count (the shells of an island stacked on each other overlap on purpose).
     """
     a, b = overlap_pairs(UV, FUV, island, region)
-    twin = (np.sort(FUV[a], 1) == np.sort(FUV[b], 1)).all(1)
+    skip = (np.sort(FUV[a], 1) == np.sort(FUV[b], 1)).all(1)  # twins
     if group is not None:
-        twin |= group[a] != group[b]
-    a, b = a[~twin], b[~twin]
+        skip |= group[a] != group[b]
+    a, b = a[~skip], b[~skip]
     if not allowed:
         return len(a)
     return sum((int(i), int(j)) not in allowed for i, j in zip(np.minimum(a, b), np.maximum(a, b)))

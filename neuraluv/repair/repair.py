@@ -261,10 +261,12 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
 
     with torch_threads(threads):
         if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
-            UVw, FUVw = repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
+            UV1, FUV1 = repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)
-            UVw, FUVw = _second_pass(Vn, F, UVw, FUVw, facts, actions, med, cfg, unweld, seed=seed, device=device,
-                                     deadline=deadline, neural=neural)
+            if not (np.array_equal(UV1, UVw) and np.array_equal(FUV1, FUVw)):  # unchanged: nothing new to read
+                UV1, FUV1 = _second_pass(Vn, F, UV1, FUV1, facts, actions, med, cfg, unweld, seed=seed,
+                                         device=device, deadline=deadline, neural=neural)
+            UVw, FUVw = UV1, FUV1
         else:
             UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, seed=seed,
                                         device=device, deadline=deadline, neural=neural)

@@ -32,7 +32,8 @@ from neuraluv.topology import undirected_edges
 #: seam's fold is local; larger regions of two stacked shells seldom come out without overlaps, and cost seconds).
 ACROSS_FRACTION = 0.1
 
-__all__ = ["repair_shells", "repair_across_shells", "intended_overlaps", "twin_layers", "repair_twin_layers", "layer_sign", "twin_layers_hold"]
+__all__ = ["repair_shells", "repair_across_shells", "intended_overlaps", "twin_layers", "repair_twin_layers",
+           "layer_sign", "twin_layers_hold"]
 
 
 def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural, only=None):
@@ -96,13 +97,11 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 if out is not None:
                     out = out * sgn
                     twin_done = np.union1d(twin_done, info["faces"])
+                    FUVw = info["FUV"]
                     if len(out) > len(work):  # a layer re-solved in pieces: its faces and their twins on new rows
-                        FUVw = info["FUV"]
                         locked = np.r_[locked, np.zeros(len(out) - len(work), bool)]
                         held = np.r_[held, np.zeros(len(out) - len(work), bool)]
                         graph = IslandGraph(FUVw, shell, len(out), locked=locked)
-                    else:
-                        FUVw = info["FUV"]
             if out is None and locked[np.unique(FUVw[cl])].any() and not budget_spent(deadline):
                 # a fold on the seam of two shells that share their rows there (mirrored halves joined along the
                 # mirror line): repaired with both shells' rows free, each face in its own shell's orientation
@@ -184,7 +183,7 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
     locked = np.zeros(len(UV), bool)
     locked[np.unique(FUV[np.setdiff1d(faces, inside)])] = True
     graph = IslandGraph(FUV, inside, len(UV), locked=locked)
-    allowed = intended_overlaps(UV * 1.0, FUV, inside, bad, IslandGraph(FUV, inside, len(UV)))
+    allowed = intended_overlaps(UV, FUV, inside, bad, IslandGraph(FUV, inside, len(UV)))
     out, info = repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, **{**kw, "allowed": allowed},
                                sign=sign, group=it.shell, max_fraction=ACROSS_FRACTION)
     if out is not None:
