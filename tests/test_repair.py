@@ -95,6 +95,29 @@ def _wound_strip(turns=1.15, n=60):
     return V, F, UV * 0.3 + 0.5
 
 
+def test_the_compiled_untangle_energy_is_the_numpy_one():
+    """numba's loop (the ``fast`` extra) and the NumPy form give the same energy, gradient and smallest det on a
+    folded region, so an untangle does not depend on whether numba is installed (beyond rounding)."""
+    import pytest
+
+    from neuraluv.lazy import HAS_NUMBA
+    from neuraluv.repair.untangle import RegionEnergy, _compiled_energy, untangle_energy
+
+    if not HAS_NUMBA:
+        pytest.skip("numba is not installed (the optional extra `fast`): only the NumPy energy runs here")
+    V, F, UV = _flat_disk(8)
+    bad, info = damage.local_fold(V, F, UV, F, rings=2, seed=3)
+    free = np.flatnonzero(damage.row_rings(F, len(V), info["center"], 3) >= 0)
+    region = np.flatnonzero(np.isin(F, free).any(1))
+    R = RegionEnergy.build(V, F, F, region, free, reference_scale(V, F, UV))
+    x = bad[R.free].reshape(-1)
+    for eps in (1.0, 1e-2, 1e-6):
+        E0, g0, d0 = untangle_energy(R, bad, x, 0.5, eps)
+        E1, g1, d1 = _compiled_energy()(bad, R.T, R.K, R.w, R.slot, len(R.free), x, 0.5, eps)
+        assert d0 < 0 and d1 == d0
+        assert np.isclose(E1, E0, rtol=1e-12) and np.allclose(g1, g0, rtol=1e-10, atol=1e-12 * np.abs(g0).max())
+
+
 def test_self_overlap_without_flips_is_found_and_repaired():
     V, F, UV = _wound_strip()
     f = layout_facts(V, F, UV, F)

@@ -18,19 +18,20 @@ unit covers cell ``(r, c)`` of its mask when it covers UV cell
 from __future__ import annotations
 
 import functools
-import importlib.util
 import math
 
 import numpy as np
 from PIL import Image, ImageDraw
 from scipy import fft
 
+from neuraluv.lazy import HAS_NUMBA, jit
+
 __all__ = ["rasterise", "disk", "dilate", "Page", "SCAN"]
 
 #: :meth:`Page.spot` scans the page's free runs with a numba kernel (when numba is installed; imported and
 #: compiled on first use) instead of reading the spot off :meth:`Page.free`'s FFT correlation: the same
 #: spot, found without correlating the whole page (packing real atlases: several times faster).
-SCAN = importlib.util.find_spec("numba") is not None
+SCAN = HAS_NUMBA
 
 
 def rasterise(rings, cells, *, lo=None, shape=None):
@@ -297,14 +298,6 @@ def _scan(runs, mask, y0, y1, x0, x1, W, H, box):
 def _kernels():
     """``(_free_runs, _scan)`` compiled by numba (``_scan`` calling ``_mask_runs`` compiled), kept in numba's on-disk
     cache where one is writable."""
-    from numba import njit
-
-    def compiled(f):
-        try:
-            return njit(cache=True)(f)
-        except RuntimeError:  # numba found no writable cache directory: compiled in each process
-            return njit(f)
-
     global _mask_runs
-    _mask_runs = compiled(_mask_runs)  # the global _scan reads, compiled before _scan is
-    return compiled(_free_runs), compiled(_scan)
+    _mask_runs = jit(_mask_runs)  # the global _scan reads, compiled before _scan is
+    return jit(_free_runs), jit(_scan)

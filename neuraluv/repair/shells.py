@@ -32,6 +32,9 @@ from neuraluv.topology import undirected_edges
 #: seam's fold is local; larger regions of two stacked shells seldom come out without overlaps, and cost seconds).
 ACROSS_FRACTION = 0.1
 
+#: Rings around a fold on a seam in which :func:`seam_signs` places the seam anew.
+SEAM_RINGS = 2
+
 __all__ = ["repair_shells", "repair_across_shells", "intended_overlaps", "twin_layers", "repair_twin_layers",
            "layer_sign", "twin_layers_hold"]
 
@@ -186,9 +189,138 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
     allowed = intended_overlaps(UV, FUV, inside, bad, IslandGraph(FUV, inside, len(UV)))
     out, info = repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, **{**kw, "allowed": allowed},
                                sign=sign, group=it.shell, max_fraction=ACROSS_FRACTION)
+    moved = np.zeros(0, np.int64)
+    if out is None and not budget_spent(kw.get("deadline")):
+        # the fold may have turned faces of one half over so that they read as the other half's: again with
+        # each face near the fold on the side of the shortest seam
+        sign2, group2, moved = seam_signs(Vn, F, UV, FUV, graph, cluster, sign, it.shell)
+        if len(moved):
+            out, info = repair_cluster(Vn, F, UV, FUV, graph, np.union1d(cluster, moved), scale,
+                                       **{**kw, "allowed": allowed}, sign=sign2, group=group2,
+                                       max_fraction=ACROSS_FRACTION)
     if out is not None:
-        info = {**info, "step": info["step"] + " (across shells)"}
+        info = {**info, "step": info["step"] + " (across shells)"} | ({"seam_faces": int(len(moved))} if len(moved)
+                                                                       else {})
     return out, info
+
+
+def seam_signs(Vn, F, UV, FUV, graph, cluster, sign, shell, rings=SEAM_RINGS):
+    """Which side of a seam between mirrored shells each face near a fold belongs to, read from the surface.
+
+    A fold on the seam of two mirrored halves turns faces of one half over, so that the layout reads them as
+    faces of the other half (their orientation is all the damaged layout tells). The seam itself is a line
+    on the surface the damage does not move: near the fold each face is given the side (``sign``) of the
+    labelling with the shortest seam (3D length of the edges between the two sides), all faces further away
+    keeping theirs — a minimum cut, with a tie-break towards each face's present orientation.
+
+    Parameters
+    ----------
+    Vn : (n,3) float array
+    F, FUV : (m,3) int arrays
+    UV : (p,2) float array
+    graph : IslandGraph
+        The faces of the island's shells (``graph.faces``).
+    cluster : int array
+        The fold's faces.
+    sign : (m,) float array
+        +1 / -1: the orientation of each face's shell (0: in no shell).
+    shell : (m,) int array
+        Each face's shell.
+    rings : int
+        The faces within this many rings of the cluster get a new side; the rest hold theirs.
+
+    Returns
+    -------
+    sign, shell : (m,) arrays, copies with the near faces' sides and shells (a face that changes side joins a
+        neighbouring shell of its new side)
+    moved : int array, the faces whose side changed
+
+    Examples
+    --------
+    Two mirrored halves of a strip meet at its narrowest, x = 0, laid on the same texels (``u = |x|``); a fold drags a row of
+    the first face right of the seam over it, so the layout reads that face as one of the left half. The
+    shortest seam gives it back to the right half:
+
+    >>> V = np.array([[x, y * (1 + abs(x) / 10), 0.0] for x in range(-4, 5) for y in (0, 1)])  # narrowest at 0
+    >>> F = np.array([f for c in range(8) for f in ([2 * c, 2 * c + 2, 2 * c + 1], [2 * c + 1, 2 * c + 2, 2 * c + 3])])
+    >>> UV = np.abs(V[:, :2]); UV[10] = [-0.5, 0.0]                  # the fold: face 8 turned over
+    >>> sign = np.r_[-np.ones(9), np.ones(7)]; shell = np.r_[np.zeros(9, int), np.ones(7, int)]   # as read
+    >>> s, sh, moved = seam_signs(V, F, UV, F, IslandGraph(F, np.arange(16), len(UV)), np.array([8]), sign, shell)
+    >>> s[6:11].tolist(), sh[6:11].tolist(), moved.tolist()
+    ([-1.0, -1.0, 1.0, 1.0, 1.0], [0, 0, 1, 1, 1], [8])
+    """
+    from scipy.sparse.csgraph import maximum_flow
+
+    sign, shell = np.asarray(sign, float).copy(), np.asarray(shell).copy()
+    faces = graph.faces
+    rows = np.zeros(graph.M.shape[1], bool)
+    rows[np.unique(FUV[cluster])] = True
+    for _ in range(rings):
+        rows = graph.grow(rows) | rows
+    near = graph.faces_touching(rows)
+    if len(np.unique(sign[faces])) < 2:
+        return sign, shell, np.zeros(0, np.int64)  # one orientation all around: no seam to place
+    # faces sharing a texture edge, and that edge's length on the surface
+    _, E = undirected_edges(FUV[faces])
+    P = np.asarray(Vn, float)[F[faces]]
+    L = np.linalg.norm(np.concatenate([P[:, 1] - P[:, 0], P[:, 2] - P[:, 1], P[:, 0] - P[:, 2]]), axis=1)
+    who = np.tile(faces, 3)
+    _, key = np.unique(E, axis=0, return_inverse=True)
+    order = np.argsort(key, kind="stable")
+    k, w_, L_ = key[order], who[order], L[order]
+    pair = k[1:] == k[:-1]  # consecutive faces on one edge (a stacked edge gives a chain of pairs)
+    a, b, le = w_[:-1][pair], w_[1:][pair], L_[:-1][pair]
+    idx = np.full(len(F), -1)
+    idx[near] = np.arange(len(near))
+    n = len(near)
+    src, snk = n, n + 1
+    unit = 1000.0 / max(float(np.median(le)) if len(le) else 1.0, 1e-300)
+    cap = np.maximum(np.rint(le * unit), 1).astype(np.int64)
+    us, vs, cs = [], [], []
+    ia, ib = idx[a], idx[b]
+    both = (ia >= 0) & (ib >= 0)
+    us += [ia[both], ib[both]]
+    vs += [ib[both], ia[both]]
+    cs += [cap[both], cap[both]]
+    for x, y in ((ia, b), (ib, a)):  # a near face beside a face holding its side: tied to that side
+        m = (x >= 0) & (idx[y] < 0) & (sign[y] != 0)
+        us.append(np.where(sign[y[m]] > 0, src, x[m]))
+        vs.append(np.where(sign[y[m]] > 0, x[m], snk))
+        cs.append(cap[m])
+    det = face_dets_of(Vn, F, UV, FUV, near)  # the tie-break: each near face's orientation as it is
+    us.append(np.where(det > 0, src, np.arange(n)))
+    vs.append(np.where(det > 0, np.arange(n), snk))
+    cs.append(np.ones(n, np.int64))
+    G = sp.csr_matrix((np.concatenate(cs).astype(np.int32), (np.concatenate(us), np.concatenate(vs))),
+                      shape=(n + 2, n + 2))
+    G.sum_duplicates()
+    flow = maximum_flow(G, src, snk).flow
+    residual = (G - flow).tocsr()
+    residual.data[residual.data < 0] = 0
+    residual.eliminate_zeros()
+    seen = np.zeros(n + 2, bool)  # the source's side of the minimum cut: +1
+    seen[src] = True
+    todo = [src]
+    while todo:
+        nxt = residual[todo].indices
+        nxt = nxt[~seen[nxt]]
+        seen[nxt] = True
+        todo = list(np.unique(nxt))
+    new = np.where(seen[:n], 1.0, -1.0)
+    moved = near[(new != sign[near]) & (sign[near] != 0)]
+    sign[near] = np.where(sign[near] != 0, new, 0.0)
+    # a face that changed side joins a shell of its new side beside it (repeated: a patch joins from its rim)
+    left = set(moved.tolist())
+    for _ in range(len(moved)):
+        if not left:
+            break
+        for f in list(left):
+            nb = np.r_[b[a == f], a[b == f]]
+            nb = nb[(sign[nb] == sign[f]) & ~np.isin(nb, list(left))]
+            if len(nb):
+                shell[f] = shell[nb[0]]
+                left.discard(f)
+    return sign, shell, moved
 
 
 def intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
