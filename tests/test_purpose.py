@@ -427,3 +427,24 @@ def test_a_fold_on_the_seam_of_mirrored_halves_is_repaired_across_them():
     after = layout_facts(V, F, res.UV, res.FUV)
     f0 = layout_facts(V, F, UV, F)
     assert np.array_equal(np.sign(after.det), np.sign(f0.det))  # each half keeps its orientation
+
+
+def test_the_seam_of_mirrored_halves_is_placed_where_the_surface_puts_it():
+    # a fold that turns faces of the right half over makes them read as faces of the left half; the seam
+    # between the halves is a line of the surface the fold did not move: the shortest cut gives them back
+    from neuraluv.repair.local import IslandGraph
+    from neuraluv.repair.shells import seam_signs
+
+    V, F, UV = mirrored_strip(n=10, rows=8)
+    x = V[F].mean(1)[:, 0]
+    truth = np.where(x < 0, -1.0, 1.0)
+    shell = np.where(x < 0, 0, 1)
+    near = np.flatnonzero(np.isin(F, np.flatnonzero((V[:, 0] == 1) & (V[:, 1] == 4))).any(1))  # around (1, 4)
+    assert len(near) == 6 and (truth[near] > 0).all()
+    read = truth.copy()
+    read[near] = -1.0  # as the damaged layout reads them: the left half's
+    sign, sh, moved = seam_signs(V, F, UV, F, IslandGraph(F, np.arange(len(F)), len(UV)), near, read, np.where(read < 0, 0, 1))
+    assert np.array_equal(sign, truth) and np.array_equal(sh, shell) and np.array_equal(np.sort(moved), np.sort(near))
+    # and where nothing is wrong, nothing moves
+    sign, sh, moved = seam_signs(V, F, UV, F, IslandGraph(F, np.arange(len(F)), len(UV)), near, truth, shell)
+    assert np.array_equal(sign, truth) and len(moved) == 0
