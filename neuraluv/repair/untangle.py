@@ -29,6 +29,12 @@ from neuraluv.lazy import HAS_NUMBA, jit
 __all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_energy_terms", "budget_spent"]
 
 
+#: Regions of at least this many faces evaluate the untangle's energy compiled by numba (when installed): a
+#: real asset's folds evaluate it some 10⁵ times (the authored Duck's damaged layouts: 40 s → 14 s), while a
+#: small region's few thousand evaluations cost less in NumPy than loading numba into the process (~0.4 s).
+COMPILED_FROM = 64
+
+
 def _stop_at(deadline):
     """A scipy ``minimize`` callback that ends the minimisation (its best point so far) once ``deadline`` passed."""
     def callback(intermediate_result):
@@ -322,7 +328,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
             return compiled(U0, R.T, R.K, R.w, R.slot, len(R.free), x, float(theta), float(eps))
         return untangle_energy(R, U0, x, theta, eps)
 
-    compiled = _compiled_energy() if HAS_NUMBA and len(R.T) else None
+    compiled = _compiled_energy() if HAS_NUMBA and len(R.T) >= COMPILED_FROM else None
     x = U0[R.free].reshape(-1).copy()
     E, _, dmin = energy(x, 1.0)
     if dmin > 0:
