@@ -149,7 +149,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 continue
             work = out
             actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows",
-                                                      "split_rows") if kk in info}
+                                                      "split_rows", "seam_faces") if kk in info}
                               | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
                                  **({"mirrored_shell": True} if flip else {})})
         UVw = work * np.array([-1.0, 1.0]) if flip else work
