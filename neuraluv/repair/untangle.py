@@ -29,9 +29,10 @@ from neuraluv.lazy import HAS_NUMBA, jit
 __all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_energy_terms", "budget_spent"]
 
 
-#: Regions of at least this many faces evaluate the untangle's energy compiled by numba (when installed): a
-#: real asset's folds evaluate it some 10⁵ times (the authored Duck's damaged layouts: 40 s → 14 s), while a
-#: small region's few thousand evaluations cost less in NumPy than loading numba into the process (~0.4 s).
+#: Regions of at least this many faces are untangled by a compiled L-BFGS on the compiled energy (numba, when
+#: installed): a real asset's folds evaluate the energy some 10⁵ times, where NumPy's and SciPy's per-call
+#: costs dominate (the authored Duck's damaged layouts: 40 s → 8 s), while a small region's few thousand
+#: evaluations cost less in NumPy than loading numba into the process (~0.4 s).
 COMPILED_FROM = 64
 
 
@@ -256,9 +257,70 @@ def untangle_energy(R, U0, x, theta, eps):
     return float((R.w * f).sum()), g, float(D.min())
 
 
+def _untangle_minimize(U0, T, K, w, slot, k, x0, theta, eps, maxiter, m, ftol, gtol):  # pragma: no cover - numba
+    """One ε-step of :func:`untangle`: L-BFGS (memory ``m``, backtracking Armijo line search) on
+    :func:`_untangle_energy` from ``x0``, for numba; stops after ``maxiter`` iterations, when an iteration
+    lowers the energy by at most ``ftol`` (relative) or when the gradient's largest entry is at most ``gtol``.
+    Returns the last iterate."""
+    n = x0.shape[0]
+    x = x0.copy()
+    f, g, _ = _untangle_energy(U0, T, K, w, slot, k, x, theta, eps)
+    S = np.zeros((m, n))
+    Y = np.zeros((m, n))
+    rho = np.zeros(m)
+    alpha = np.zeros(m)
+    count, head = 0, 0
+    for _ in range(maxiter):
+        if np.max(np.abs(g)) <= gtol:
+            break
+        q = -g
+        for j in range(count):  # two-loop recursion, newest pair first
+            i = (head - 1 - j) % m
+            alpha[i] = rho[i] * np.dot(S[i], q)
+            q = q - alpha[i] * Y[i]
+        if count > 0:
+            i = (head - 1) % m
+            q = q * (np.dot(S[i], Y[i]) / np.dot(Y[i], Y[i]))
+        else:
+            q = q / max(np.sqrt(np.dot(g, g)), 1e-300)  # the first step: unit length along -g
+        for j in range(count - 1, -1, -1):
+            i = (head - 1 - j) % m
+            q = q + S[i] * (alpha[i] - rho[i] * np.dot(Y[i], q))
+        gd = np.dot(g, q)
+        if not gd < 0:  # not a descent direction: forget the pairs, steepest descent
+            count = 0
+            q = -g / max(np.sqrt(np.dot(g, g)), 1e-300)
+            gd = np.dot(g, q)
+        t = 1.0
+        found = False
+        for _ls in range(60):
+            xn = x + t * q
+            fn, gn, _ = _untangle_energy(U0, T, K, w, slot, k, xn, theta, eps)
+            if np.isfinite(fn) and fn <= f + 1e-4 * t * gd:
+                found = True
+                break
+            t *= 0.5
+        if not found:
+            break
+        sv, yv = xn - x, gn - g
+        sy = np.dot(sv, yv)
+        if sy > 1e-10 * np.sqrt(np.dot(sv, sv) * np.dot(yv, yv)):
+            S[head], Y[head], rho[head] = sv, yv, 1.0 / sy
+            head = (head + 1) % m
+            count = min(count + 1, m)
+        drop = f - fn
+        x, f, g = xn, fn, gn
+        if drop <= ftol * max(abs(f), abs(f + drop), 1.0):
+            break
+    return x
+
+
 @functools.cache
 def _compiled_energy():
-    return jit(_untangle_energy)
+    """``(energy, minimize)``: :func:`_untangle_energy` and :func:`_untangle_minimize` compiled by numba."""
+    global _untangle_energy
+    _untangle_energy = jit(_untangle_energy)  # the global _untangle_minimize calls, compiled before it is
+    return _untangle_energy, jit(_untangle_minimize)
 
 
 def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inner=300, deadline=None, sign=None):
@@ -280,7 +342,9 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     theta : float
         Weight of the area term (the paper's ½).
     max_outer, inner : int
-        ε-steps, and L-BFGS iterations per step.
+        ε-steps, and L-BFGS iterations per step (SciPy's L-BFGS-B on the NumPy energy; for regions of at least
+        :data:`COMPILED_FROM` faces with numba installed, a compiled L-BFGS with a backtracking line search on
+        the compiled energy: the same minimisation, other iterates).
     deadline : float, optional
         ``time.perf_counter()`` value after which no further ε-step starts (``ok`` tells whether the map so far
         is fold-free).
@@ -325,8 +389,17 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
 
     def energy(x, eps):
         if compiled is not None:
-            return compiled(U0, R.T, R.K, R.w, R.slot, len(R.free), x, float(theta), float(eps))
+            return compiled[0](U0, R.T, R.K, R.w, R.slot, len(R.free), x, float(theta), float(eps))
         return untangle_energy(R, U0, x, theta, eps)
+
+    def minimise(x, eps):
+        """The inner minimisation at ``eps``: compiled L-BFGS, or SciPy's L-BFGS-B on the NumPy energy."""
+        if compiled is not None:
+            return compiled[1](U0, R.T, R.K, R.w, R.slot, len(R.free), x, float(theta), float(eps), int(inner), 10,
+                               1e-13, 1e-11)
+        return minimize(lambda z, e: energy(z, e)[:2], x, args=(eps,), jac=True, method="L-BFGS-B",
+                        options={"maxiter": int(inner), "maxcor": 10, "ftol": 1e-13, "gtol": 1e-11},
+                        callback=None if deadline is None else _stop_at(deadline)).x
 
     compiled = _compiled_energy() if HAS_NUMBA and len(R.T) >= COMPILED_FROM else None
     x = U0[R.free].reshape(-1).copy()
@@ -337,10 +410,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     for outer in range(1, max_outer + 1):
         if outer > 1 and budget_spent(deadline):  # the time budget: the map so far (checked for folds below)
             break
-        res = minimize(lambda z, e: energy(z, e)[:2], x, args=(eps,), jac=True, method="L-BFGS-B",
-                       options={"maxiter": int(inner), "maxcor": 10, "ftol": 1e-13, "gtol": 1e-11},
-                       callback=None if deadline is None else _stop_at(deadline))
-        x = res.x
+        x = minimise(x, eps)
         E, _, dmin = energy(x, eps)
         if E_prev is not None and dmin > 0 and abs(E_prev - E) <= 1e-5 * abs(E):
             break
