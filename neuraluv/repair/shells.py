@@ -61,6 +61,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     if only is not None:  # (m,) bool: repair only these of the problem faces
         bad = bad & only
     twin_done = np.zeros(0, np.int64)  # faces of folds repaired in twin layers, and their twins
+    across_allowed = {}  # island -> the face pairs of its shells that overlap on purpose (read once)
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
         i = int(it.shell_island[k])
@@ -108,7 +109,8 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             if out is None and locked[np.unique(FUVw[cl])].any() and not budget_spent(deadline):
                 # a fold on the seam of two shells that share their rows there (mirrored halves joined along the
                 # mirror line): repaired with both shells' rows free, each face in its own shell's orientation
-                out, info = repair_across_shells(Vn, F, work * sgn, FUVw, facts, it, i, cl, bad, dens, **kw)
+                out, info = repair_across_shells(Vn, F, work * sgn, FUVw, facts, it, i, cl, bad, dens,
+                                                 allowed_cache=across_allowed, **kw)
                 if out is not None:
                     out = out * sgn
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
@@ -156,7 +158,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     return UVw, FUVw
 
 
-def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale, **kw):
+def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale, *, allowed_cache=None, **kw):
     """Repair a fold on rows that shells of one island share (a seam), with the rows of every shell free.
 
     Each face is untangled and polished in its own shell's orientation (``sign``,
@@ -173,6 +175,10 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
     cluster : int array, the fold's faces
     bad : (m,) bool array, the problem faces (for the overlaps that were there on purpose)
     scale : float, the island's texel density
+    allowed_cache : dict, optional
+        ``island -> face pairs that overlap on purpose`` (:func:`intended_overlaps` over the island's shells),
+        filled on first use: a repair moves only broken faces, so the pairs read once hold for its other folds (``bad``, the
+        island's problem faces, is the same for all of them).
     **kw : for :func:`~neuraluv.repair.local.repair_cluster`
 
     Returns
@@ -186,7 +192,11 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
     locked = np.zeros(len(UV), bool)
     locked[np.unique(FUV[np.setdiff1d(faces, inside)])] = True
     graph = IslandGraph(FUV, inside, len(UV), locked=locked)
-    allowed = intended_overlaps(UV, FUV, inside, bad, IslandGraph(FUV, inside, len(UV)))
+    allowed = None if allowed_cache is None else allowed_cache.get(int(island))
+    if allowed is None:
+        allowed = intended_overlaps(UV, FUV, inside, bad, IslandGraph(FUV, inside, len(UV)))
+        if allowed_cache is not None:
+            allowed_cache[int(island)] = allowed
     out, info = repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, **{**kw, "allowed": allowed},
                                sign=sign, group=it.shell, max_fraction=ACROSS_FRACTION)
     moved = np.zeros(0, np.int64)
