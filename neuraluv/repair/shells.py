@@ -343,13 +343,21 @@ def intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
     a, b = overlap_pairs(UV, FUV, shell)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     keep = ~bad[lo] & ~bad[hi]
-    for n in np.flatnonzero(~keep):
-        i, j = (lo[n], hi[n]) if bad[lo[n]] else (hi[n], lo[n])
-        near = np.zeros(graph.M.shape[1], bool)
-        near[FUV[i]] = True
+    n = np.flatnonzero(~keep)
+    if len(n):
+        i, j = np.where(bad[lo[n]], lo[n], hi[n]), np.where(bad[lo[n]], hi[n], lo[n])  # i broken
+        # j is within `rings` rings of i (rows grown `rings` times from i's, as IslandGraph.grow does) exactly when
+        # (G^(rings+1))[i, j] != 0, G the faces' adjacency through shared rows (each face its own neighbour)
+        pos = np.full(len(bad), -1)
+        pos[graph.faces] = np.arange(len(graph.faces))
+        G = (graph.M @ graph.MT).tocsr()
+        G.data[:] = 1.0
+        ui, inv = np.unique(i, return_inverse=True)
+        R = G[pos[ui]]
         for _ in range(rings):
-            near = graph.grow(near)
-        keep[n] = not near[FUV[j]].any()
+            R = (R @ G).tocsr()
+            R.data[:] = 1.0
+        keep[n] = np.asarray(R[inv.reshape(-1), pos[j]]).reshape(-1) == 0
     return set(zip(lo[keep].tolist(), hi[keep].tolist()))
 
 
