@@ -31,9 +31,10 @@ __all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_ener
 
 #: Regions of at least this many faces are untangled by a compiled L-BFGS on the compiled energy (numba, when
 #: installed): a real asset's folds evaluate the energy some 10⁵ times, where NumPy's and SciPy's per-call
-#: costs dominate (the authored Duck's damaged layouts: 40 s → 8 s), while a small region's few thousand
-#: evaluations cost less in NumPy than loading numba into the process (~0.4 s).
-COMPILED_FROM = 64
+#: costs dominate (the authored Duck's damaged layouts: 40 s → 7 s), while the few thousand evaluations of a
+#: fold of a few faces cost less in NumPy than loading numba into the process (~0.4 s). 16 rather than 64:
+#: the same results on the authored damage sweep, its Duck cases 0.4–1.6 s faster.
+COMPILED_FROM = 16
 
 
 def _stop_at(deadline):
