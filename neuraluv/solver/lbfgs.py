@@ -117,9 +117,9 @@ class LBFGSMemory:
         """Store the pair ``(s, y)`` (``(B, P)`` each) of the charts in ``acc (B,)`` whose curvature ``s·y`` is positive."""
         m, k = self.m, self.ptr
         z = torch.zeros((), dtype=s.dtype, device=s.device)
-        # every stored vector against s and y in one product (slot k's old pair included: its entries are
-        # overwritten below by the new pair's own s·y and y·y)
-        dots = torch.bmm(torch.stack([s, y], 1), self.SY_vecs.transpose(1, 2)).transpose(1, 2).to(torch.float64)
+        self.SY_vecs[:, k] = 0
+        self.SY_vecs[:, m + k] = 0
+        dots = torch.stack([_rowdots(self.SY_vecs, s), _rowdots(self.SY_vecs, y)], 2).to(torch.float64)  # (B, 2m, 2)
         ss = row_dot(s, s)
         sy = row_dot(s, y)
         yy = row_dot(y, y)
