@@ -247,9 +247,9 @@ def seam_signs(Vn, F, UV, FUV, graph, cluster, sign, shell, rings=SEAM_RINGS):
 
     Examples
     --------
-    Two mirrored halves of a strip meet at its narrowest, x = 0, laid on the same texels (``u = |x|``); a fold drags a row of
-    the first face right of the seam over it, so the layout reads that face as one of the left half. The
-    shortest seam gives it back to the right half:
+    Two mirrored halves of a strip meet at its narrowest, x = 0, laid on the same texels (``u = |x|``); a fold
+    drags a row of the first face right of the seam over it, so the layout reads that face as one of the left
+    half. The shortest seam gives it back to the right half:
 
     >>> V = np.array([[x, y * (1 + abs(x) / 10), 0.0] for x in range(-4, 5) for y in (0, 1)])  # narrowest at 0
     >>> F = np.array([f for c in range(8) for f in ([2 * c, 2 * c + 2, 2 * c + 1], [2 * c + 1, 2 * c + 2, 2 * c + 3])])
@@ -285,7 +285,7 @@ def seam_signs(Vn, F, UV, FUV, graph, cluster, sign, shell, rings=SEAM_RINGS):
     n = len(near)
     src, snk = n, n + 1
     unit = 1000.0 / max(float(np.median(le)) if len(le) else 1.0, 1e-300)
-    cap = np.maximum(np.rint(le * unit), 1).astype(np.int64)
+    cap = np.clip(np.rint(le * unit), 1, 2**20).astype(np.int64)  # integer capacities; no int32 overflow in sums
     us, vs, cs = [], [], []
     ia, ib = idx[a], idx[b]
     both = (ia >= 0) & (ib >= 0)
