@@ -101,7 +101,7 @@ def test_the_compiled_untangle_energy_is_the_numpy_one():
     import pytest
 
     from neuraluv.lazy import HAS_NUMBA
-    from neuraluv.repair.untangle import RegionEnergy, _compiled_energy, untangle_energy
+    from neuraluv.repair.untangle import RegionEnergy, _kernels, untangle_energy
 
     if not HAS_NUMBA:
         pytest.skip("numba is not installed (the optional extra `fast`): only the NumPy energy runs here")
@@ -113,7 +113,7 @@ def test_the_compiled_untangle_energy_is_the_numpy_one():
     x = bad[R.free].reshape(-1)
     for eps in (1.0, 1e-2, 1e-6):
         E0, g0, d0 = untangle_energy(R, bad, x, 0.5, eps)
-        E1, g1, d1 = _compiled_energy()[0](bad, R.T, R.K, R.w, R.slot, len(R.free), x, 0.5, eps)
+        E1, g1, d1 = _kernels()[0](bad, R.T, R.K, R.w, R.slot, len(R.free), x, 0.5, eps)
         assert d0 < 0 and d1 == d0
         assert np.isclose(E1, E0, rtol=1e-12) and np.allclose(g1, g0, rtol=1e-10, atol=1e-12 * np.abs(g0).max())
 

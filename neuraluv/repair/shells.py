@@ -35,8 +35,8 @@ ACROSS_FRACTION = 0.1
 #: Rings around a fold on a seam in which :func:`seam_signs` places the seam anew.
 SEAM_RINGS = 2
 
-__all__ = ["repair_shells", "repair_across_shells", "intended_overlaps", "twin_layers", "repair_twin_layers",
-           "layer_sign", "twin_layers_hold"]
+__all__ = ["repair_shells", "repair_across_shells", "seam_signs", "intended_overlaps", "twin_layers",
+           "repair_twin_layers", "layer_sign", "twin_layers_hold"]
 
 
 def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural, only=None):
@@ -177,8 +177,8 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
     scale : float, the island's texel density
     allowed_cache : dict, optional
         ``island -> face pairs that overlap on purpose`` (:func:`intended_overlaps` over the island's shells),
-        filled on first use: a repair moves only broken faces, so the pairs read once hold for its other folds (``bad``, the
-        island's problem faces, is the same for all of them).
+        filled on first use: a repair moves only broken faces, so the pairs read once hold for its other folds
+        (``bad``, the island's problem faces, is the same for all of them).
     **kw : for :func:`~neuraluv.repair.local.repair_cluster`
 
     Returns
@@ -259,17 +259,17 @@ def seam_signs(Vn, F, UV, FUV, graph, cluster, sign, shell, rings=SEAM_RINGS):
     >>> s[6:11].tolist(), sh[6:11].tolist(), moved.tolist()
     ([-1.0, -1.0, 1.0, 1.0, 1.0], [0, 0, 1, 1, 1], [8])
     """
-    from scipy.sparse.csgraph import maximum_flow
+    from scipy.sparse.csgraph import breadth_first_order, maximum_flow
 
     sign, shell = np.asarray(sign, float).copy(), np.asarray(shell).copy()
     faces = graph.faces
+    if len(np.unique(sign[faces])) < 2:
+        return sign, shell, np.zeros(0, np.int64)  # one orientation all around: no seam to place
     rows = np.zeros(graph.M.shape[1], bool)
     rows[np.unique(FUV[cluster])] = True
     for _ in range(rings):
         rows = graph.grow(rows) | rows
     near = graph.faces_touching(rows)
-    if len(np.unique(sign[faces])) < 2:
-        return sign, shell, np.zeros(0, np.int64)  # one orientation all around: no seam to place
     # faces sharing a texture edge, and that edge's length on the surface
     _, E = undirected_edges(FUV[faces])
     P = np.asarray(Vn, float)[F[faces]]
@@ -308,14 +308,8 @@ def seam_signs(Vn, F, UV, FUV, graph, cluster, sign, shell, rings=SEAM_RINGS):
     residual = (G - flow).tocsr()
     residual.data[residual.data < 0] = 0
     residual.eliminate_zeros()
-    seen = np.zeros(n + 2, bool)  # the source's side of the minimum cut: +1
-    seen[src] = True
-    todo = [src]
-    while todo:
-        nxt = residual[todo].indices
-        nxt = nxt[~seen[nxt]]
-        seen[nxt] = True
-        todo = list(np.unique(nxt))
+    seen = np.zeros(n + 2, bool)  # the source's side of the minimum cut (what it still reaches): +1
+    seen[breadth_first_order(residual, src, return_predecessors=False)] = True
     new = np.where(seen[:n], 1.0, -1.0)
     moved = near[(new != sign[near]) & (sign[near] != 0)]
     sign[near] = np.where(sign[near] != 0, new, 0.0)

@@ -33,7 +33,7 @@ __all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_ener
 #: installed): a real asset's folds evaluate the energy some 10⁵ times, where NumPy's and SciPy's per-call
 #: costs dominate (the authored Duck's damaged layouts: 40 s → 7 s), while the few thousand evaluations of a
 #: fold of a few faces cost less in NumPy than loading numba into the process (~0.4 s). 16 rather than 64:
-#: the same results on the authored damage sweep, its Duck cases 0.4–1.6 s faster.
+#: the same results on the authored damage sweep, its Duck cases 0.4–1.3 s faster.
 COMPILED_FROM = 16
 
 
@@ -317,8 +317,8 @@ def _untangle_minimize(U0, T, K, w, slot, k, x0, theta, eps, maxiter, m, ftol, g
 
 
 @functools.cache
-def _compiled_energy():
-    """``(energy, minimize)``: :func:`_untangle_energy` and :func:`_untangle_minimize` compiled by numba."""
+def _kernels():
+    """``(energy, minimize)``: :func:`_untangle_energy` and :func:`_untangle_minimize` compiled by numba (once)."""
     global _untangle_energy
     _untangle_energy = jit(_untangle_energy)  # the global _untangle_minimize calls, compiled before it is
     return _untangle_energy, jit(_untangle_minimize)
@@ -402,7 +402,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
                         options={"maxiter": int(inner), "maxcor": 10, "ftol": 1e-13, "gtol": 1e-11},
                         callback=None if deadline is None else _stop_at(deadline)).x
 
-    compiled = _compiled_energy() if HAS_NUMBA and len(R.T) >= COMPILED_FROM else None
+    compiled = _kernels() if HAS_NUMBA and len(R.T) >= COMPILED_FROM else None
     x = U0[R.free].reshape(-1).copy()
     E, _, dmin = energy(x, 1.0)
     if dmin > 0:
