@@ -146,6 +146,25 @@ def test_local_fold_is_repaired_locally():
     assert e1 <= 1.05 * e0
 
 
+def test_a_fold_on_a_regular_layout_changes_only_the_faces_the_damage_touched():
+    # a grid mapped to itself: the rows the fold moved are the only ones whose every face is distorted, and
+    # freeing exactly those (not the ring around them) leaves every face the damage did not touch bit-identical
+    n = 12
+    x, y = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
+    V = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+    q = np.array([[i + (n + 1) * j, i + 1 + (n + 1) * j, i + n + 2 + (n + 1) * j, i + n + 1 + (n + 1) * j]
+                  for j in range(n) for i in range(n)])
+    F = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+    UV = V[:, :2] / n
+    for rings in (1, 2):
+        bad, _ = damage.local_fold(V, F, UV, F, rings=rings, seed=0)
+        res = repair_layout(V, F, bad, F, purpose="texture")
+        damaged = (bad != UV).any(1)[F].any(1)
+        assert res.before.validation["flips"] > 0 and res.after.ok
+        assert res.changed_faces.any() and not (res.changed_faces & ~damaged).any()
+        assert res.islands[0]["actions"][0]["rings"] == -2
+
+
 def test_mirrored_island_is_reflected_not_resolved():
     V, F, UV, FUV, a, b = two_islands()
     uv, _ = damage.mirror_island(UV, FUV, a)

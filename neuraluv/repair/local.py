@@ -5,12 +5,14 @@ For one cluster of folded faces (flipped or degenerate, joined through shared
 first step that gives a valid region (every face ``det J > 0``, no triangle of
 the region overlapping another of the island):
 
-1. **untangle + polish** in a region grown ring by ring (the cluster's inner rows, then 0, 1, 2, 3, 4, 6, 8, …
-   rings of texture vertices around the cluster): the rows in the region move,
-   its outer ring stays pinned; :func:`~neuraluv.repair.untangle.untangle`
+1. **untangle + polish** in a region grown ring by ring: the cluster's inner rows; then the rows the
+   damage moved, read as the rows near the cluster whose every face is folded or more distorted than
+   most faces further out; then 0, 1, 2, 3, 4, 6, 8, … rings of texture vertices around the cluster.
+   The rows in the region move, its outer ring stays pinned; :func:`~neuraluv.repair.untangle.untangle`
    (Garanzha et al. 2021) removes the folds, :func:`~neuraluv.repair.untangle.polish`
    lowers the paper's stable objective with flip-free steps. The first region
-   that works is then grown one ring at a time while the next ring is more
+   that works (unless it is the damaged rows, which already hold them) is then
+   grown one ring at a time while the next ring is more
    distorted than the faces further out and growing lowers the distortion by
    more than 1% (rows the damage moved without folding them are freed too);
    when the polish stops on its iteration cap, the neural solver continues from
@@ -143,6 +145,43 @@ def _far_esd(Vn, F, UV, FUV, faces, scale, q=FAR_QUANTILE):
     return float(np.quantile(sd, q)) if len(sd) else float("inf")
 
 
+def _hurt_rows(Vn, F, UV, FUV, graph, cluster, seed_rows, scale, band_tol, sign):
+    """Rows near a fold cluster whose every face is damaged: folded, or more distorted than most faces further out.
+
+    A fold's damage moves some rows; the faces around a moved row are folded or distorted, while a row it
+    did not move has faces beyond the damage too. Freeing exactly these rows leaves every face the damage
+    did not touch bit-identical. "Distorted" is the test the region growth uses (:func:`repair_cluster`):
+    a face within two rings of the cluster whose E_SD is more than ``band_tol`` (relative) above the
+    :data:`FAR_QUANTILE` quantile of the faces three to five rings out. ``sign`` ((m,) ±1): the orientation
+    each face is valid in (a face valid reversed is measured mirrored).
+
+    Returns
+    -------
+    (p,) bool array over the rows (locked rows never set)
+    """
+    near_rows = graph.grow(graph.grow(seed_rows))
+    near = graph.faces_touching(near_rows)
+    out = graph.grow(graph.grow(graph.grow(near_rows)))
+    far = np.setdiff1d(graph.faces_touching(out), near)
+    hurt = np.zeros(len(F), bool)
+    hurt[cluster] = True
+    if len(far):
+        both = np.r_[near, far]
+        J = corner_jacobians(Vn, F[both], UV / scale, FUV[both])[0]
+        J[:, 0, :] *= sign[both][:, None]  # a face valid reversed, mirrored: the same E_SD, det J > 0
+        fm = face_metrics(J)
+        det, sd, sd_far = fm["det"][:len(near)], fm["sd"][:len(near)], fm["sd"][len(near):]
+        sd_far = sd_far[np.isfinite(sd_far)]
+        if len(sd_far):
+            with np.errstate(invalid="ignore"):
+                bad = ~(det > 0) | ~np.isfinite(sd) | (sd > (1.0 + band_tol) * np.quantile(sd_far, FAR_QUANTILE))
+            hurt[near[bad]] = True
+    rows = np.zeros(len(UV), bool)
+    rows[np.unique(FUV[graph.faces[hurt[graph.faces]]])] = True
+    beyond = (graph.MT @ (~hurt[graph.faces]).astype(float)) > 0  # rows with a face that is not damaged
+    return rows & ~beyond & ~graph.locked
+
+
 def _tutte_inside(UV, FUV, faces, free):
     """Uniform Tutte map of the region's free rows with every other row of the region pinned (None if singular)."""
     T = FUV[faces]
@@ -234,8 +273,8 @@ def _try_neural(Vn, F, UV, FUV, region, free, scale, config, seed, device, deadl
 
 
 def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed=0, device="cpu", deadline=None,
-                   max_fraction=0.5, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1, allowed=None,
-                   sign=None, group=None):
+                   max_fraction=0.5, max_rings=None, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1,
+                   allowed=None, sign=None, group=None):
     """Repair one fold cluster in the smallest region that works (see the module docstring).
 
     Parameters
@@ -257,6 +296,8 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         For the neural step.
     max_fraction : float
         Stop growing rings when the region holds more than this fraction of the island.
+    max_rings : int, optional
+        Nor try more than this many rings around the cluster.
     neural : bool
         Allow the neural steps.
     max_extra_rings, grow_gain, band_tol : int, float, float
@@ -280,8 +321,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     UV : (p,2) float array or None
         The repaired copy (None: escalate to the whole island).
     info : dict
-        ``step``, ``rings`` (-1: only the rows inside the cluster), ``region_faces``, ``free_rows``, ``time``, and the
-        sub-steps' details.
+        ``step``, ``rings`` (the first region that worked: -1 the rows inside the cluster, -2 the damaged rows,
+        else the rings around the cluster), ``extra_rings`` (grown after it), ``region_faces``, ``free_rows``,
+        ``time``, and the sub-steps' details.
     """
     t0 = time.perf_counter()
     n_rows = len(UV)
@@ -333,7 +375,10 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     in_cluster[cluster] = True
     outside = (graph.MT @ (~in_cluster[graph.faces]).astype(float)) > 0  # rows of a face outside the cluster
     inner = seed_rows & ~outside
-    schedule = ([-1] if inner.any() and (inner != seed_rows).any() else []) + list(RING_SCHEDULE)
+    hurt = inner | _hurt_rows(Vn, F, UV, FUV, graph, cluster, seed_rows, local_scale(seed_rows), band_tol, sgn)
+    schedule = ([-1] if inner.any() and (inner != seed_rows).any() else []) \
+        + ([-2] if (hurt != inner).any() and (hurt != seed_rows).any() else []) \
+        + [r for r in RING_SCHEDULE if max_rings is None or r <= max_rings]
     rows = seed_rows.copy()
     done_r = 0
     last = None
@@ -344,7 +389,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
             return None, {"step": "budget", "reason": "the time budget was spent", "tried": tried,
                           "time": time.perf_counter() - t0}
         if r < 0:
-            rows = inner.copy()
+            rows = (inner if r == -1 else hurt).copy()
         else:
             if done_r < 0:
                 rows, done_r = seed_rows.copy(), 0
@@ -354,6 +399,8 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         region = graph.faces_touching(rows)
         whole = len(region) == len(island) and not (graph.grow(rows) & ~rows).any()
         if len(region) > max_fraction * len(island) and last is not None:
+            if r == -2:
+                continue  # the damaged rows reach far: the rings around the cluster are tried next
             break
         try:
             out, det = attempt(rows)
@@ -373,7 +420,8 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         # region and one ring beyond, the same faces for both) by more than ``grow_gain``.
         r, rows, out, det, whole = found
         extra = 0
-        while not whole and extra < max_extra_rings and not budget_spent(deadline):
+        # the damaged rows themselves (r = -2) already hold every row the damage moved around the fold
+        while r != -2 and not whole and extra < max_extra_rings and not budget_spent(deadline):
             bigger = graph.grow(rows)
             region_b = graph.faces_touching(bigger)
             if len(region_b) > max_fraction * len(island) or (bigger == rows).all():
@@ -396,7 +444,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
             e_old, e_new = region_esd(Vn, F, out, FUV, S, sc), region_esd(Vn, F, out_b, FUV, S, sc)
             if not e_new < (1.0 - grow_gain) * e_old:
                 break
-            rows, out, det, r, extra = bigger, out_b, det_b, r + 1, extra + 1
+            rows, out, det, extra = bigger, out_b, det_b, extra + 1
             whole = len(region_b) == len(island) and not (graph.grow(rows) & ~rows).any()
         region, free, sc = det["region"], det["free"], det["scale"]
         step = "untangle+polish"
