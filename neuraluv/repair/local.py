@@ -12,7 +12,7 @@ the region overlapping another of the island):
    (Garanzha et al. 2021) removes the folds, :func:`~neuraluv.repair.untangle.polish`
    lowers the paper's stable objective with flip-free steps. The first region
    that works (unless it is the damaged rows, which already hold them) is then
-   grown one ring at a time while the next ring is more
+   grown one ring at a time while the next ring holds damaged rows, is more
    distorted than the faces further out and growing lowers the distortion by
    more than 1% (rows the damage moved without folding them are freed too);
    when the polish stops on its iteration cap, the neural solver continues from
@@ -302,12 +302,12 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         Allow the neural steps.
     max_extra_rings, grow_gain, band_tol : int, float, float
         After the first region that works, grow it one ring at a time (at most
-        ``max_extra_rings``) while the faces of the next ring are more than
-        ``band_tol`` (relative) more distorted than most faces two to
-        four rings out (their :data:`FAR_QUANTILE` quantile), and growing lowers
-        the energy over the grown region and one ring beyond by more than ``grow_gain``: rows the damage moved without folding
-        are freed too, but a layout that was merely not optimal is not
-        "improved" beyond its neighbourhood's quality.
+        ``max_extra_rings``) while the next ring holds a damaged row (:func:`_hurt_rows`, whose test
+        ``band_tol`` also sets), its faces are more than ``band_tol`` (relative) more distorted than most
+        faces two to four rings out (their :data:`FAR_QUANTILE` quantile), and growing lowers the energy
+        over the grown region and one ring beyond by more than ``grow_gain``: rows the damage moved
+        without folding are freed too, but a layout that was merely not optimal is not "improved" beyond
+        its neighbourhood's quality.
     allowed : set of (int, int), optional
         Face pairs of the island that overlap on purpose (:func:`region_overlaps`): a repaired
         region may keep them, but makes no other overlap.
@@ -426,6 +426,8 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
             region_b = graph.faces_touching(bigger)
             if len(region_b) > max_fraction * len(island) or (bigger == rows).all():
                 break
+            if not (bigger & hurt & ~rows).any():
+                break  # no row the damage moved is left pinned in the next ring: growing would only "improve"
             # grow only while the damage goes on: the faces of the next ring (area-weighted mean) are more distorted
             # than most faces further out (the FAR_QUANTILE quantile over rings 2-4: a quantile, as the damage may
             # reach there too, and an upper one, as an artist's layout has distorted parts of its own) by more than
