@@ -66,6 +66,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         bad = bad & only
     twin_done = np.zeros(0, np.int64)  # faces of folds repaired in twin layers, and their twins
     across_allowed = {}  # island -> the face pairs of its shells that overlap on purpose (read once)
+    twin_allowed = {}  # (island, layer, rows) -> the same for a layer of twin halves
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
         i = int(it.shell_island[k])
@@ -101,7 +102,8 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             g = IslandGraph(FUVw, shell, len(work), locked=locked & ~(held & own)) if (held & own).any() else graph
             out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, **kw)
             if out is None and locked[np.unique(FUVw[cl])].any():  # a fold of twin halves that share their rows
-                out, info = repair_twin_layers(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl, dens, **kw)
+                out, info = repair_twin_layers(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl, dens,
+                                               allowed_cache=twin_allowed, **kw)
                 if out is not None:
                     out = out * sgn
                     twin_done = np.union1d(twin_done, info["faces"])
@@ -209,6 +211,10 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
         # each face near the fold on the side of the shortest seam
         sign2, group2, moved = seam_signs(Vn, F, UV, FUV, graph, cluster, sign, it.shell)
         if len(moved):
+            if not bad[moved].all():  # faces the cut turned over are broken too: their overlaps are not intended
+                bad2 = bad.copy()
+                bad2[moved] = True
+                allowed = intended_overlaps(UV, FUV, inside, bad2, IslandGraph(FUV, inside, len(UV)))
             out, info = repair_cluster(Vn, F, UV, FUV, graph, np.union1d(cluster, moved), scale,
                                        **{**kw, "allowed": allowed}, sign=sign2, group=group2,
                                        max_fraction=ACROSS_FRACTION, max_rings=ACROSS_RINGS)
@@ -399,7 +405,7 @@ def twin_layers(F, FUV, faces):
     return connected_components(A, directed=False)[1], twin
 
 
-def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, **kw):
+def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, allowed_cache=None, **kw):
     """Repair a fold of twin halves in their layers (:func:`twin_layers`), each in its own orientation.
 
     In each layer the cluster's faces (or their twins) lie in, the faces reversed against the layer (the
@@ -414,6 +420,9 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, **kw):
     UV : (p,2) float array (not modified)
     island, cluster : int arrays, the island's faces and the fold's
     scale : float, the island's texel density
+    allowed_cache : dict, optional
+        The face pairs of each layer that overlap on purpose (:func:`intended_overlaps`, with every face
+        reversed against the layer broken), filled on first use and read by the island's later folds.
     **kw : for :func:`~neuraluv.repair.local.repair_cluster`
 
     Returns
@@ -437,15 +446,21 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, **kw):
         fl = island[mine]
         sign = np.array([layer_sign(Vn, F, out, FUV, fl), 1.0])
         work = out * sign
-        targets = fl[~(face_dets_of(Vn, F, work, FUV, fl) > 0) & touch[mine]]
+        reversed_ = ~(face_dets_of(Vn, F, work, FUV, fl) > 0)
+        targets = fl[reversed_ & touch[mine]]
         if not len(targets):
             continue
         others = ~mine & ~((twin >= 0) & mine[np.maximum(twin, 0)])  # faces outside the layer, no twin in it
         locked = np.zeros(len(UV), bool)
         locked[np.unique(FUV[island[others]])] = True
-        bad = np.zeros(len(F), bool)
-        bad[targets] = True
-        allowed = intended_overlaps(work, FUV, fl, bad, IslandGraph(FUV, fl, len(work)))
+        key = (int(island[0]), int(lay), len(work))  # (new rows: a layer re-solved in pieces, read anew)
+        allowed = None if allowed_cache is None else allowed_cache.get(key)
+        if allowed is None:  # every face reversed against the layer is broken, this fold's or another's
+            bad = np.zeros(len(F), bool)
+            bad[fl[reversed_]] = True
+            allowed = intended_overlaps(work, FUV, fl, bad, IslandGraph(FUV, fl, len(work)))
+            if allowed_cache is not None:
+                allowed_cache[key] = allowed
         res, info = repair_cluster(Vn, F, work, FUV, IslandGraph(FUV, fl, len(work), locked=locked), targets, scale,
                                    **{**kw, "allowed": allowed})
         if res is None:  # the whole layer free (its locked rows kept)
