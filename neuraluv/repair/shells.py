@@ -49,6 +49,11 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     A fold on rows that two stacked halves share (twin faces) is repaired in its half's layer
     (:func:`repair_twin_layers`): the twins follow, mirrored.
 
+    The steps for one fold, most local first: a region of its shell; a region of its twin halves' layer;
+    a region across the shells that share its rows (:func:`repair_across_shells`); a region of the shell
+    on copies of those rows; the twin halves' whole layer (untangled, else re-solved); the whole shell
+    untangled; the shell re-solved.
+
     A reversed shell is repaired on the layout negated in ``u`` (exact), then negated back, so every row
     the repair does not free is bit-identical. Pairs of the shell's faces that overlapped on purpose may
     stay; a repaired region makes no other overlap. A fold whose rows are all shared with another shell (a
@@ -67,6 +72,21 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     twin_done = np.zeros(0, np.int64)  # faces of folds repaired in twin layers, and their twins
     across_allowed = {}  # island -> the face pairs of its shells that overlap on purpose (read once)
     twin_allowed = {}  # (island, layer, rows) -> the same for a layer of twin halves
+
+    def _twin(whole):
+        """The fold ``cl`` of shell ``k`` repaired in its twin halves' layers (:func:`repair_twin_layers`)."""
+        nonlocal twin_done, FUVw, locked, held, graph
+        res, inf = repair_twin_layers(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl, dens, whole=whole,
+                                      allowed_cache=twin_allowed, **kw)
+        if res is not None:
+            res = res * sgn
+            twin_done = np.union1d(twin_done, inf["faces"])
+            FUVw = inf["FUV"]
+            if len(res) > len(work):  # a layer re-solved in pieces: its faces and their twins on new rows
+                locked = np.r_[locked, np.zeros(len(res) - len(work), bool)]
+                held = np.r_[held, np.zeros(len(res) - len(work), bool)]
+                graph = IslandGraph(FUVw, shell, len(res), locked=locked)
+        return res, inf
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
         i = int(it.shell_island[k])
@@ -101,17 +121,9 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             own[np.unique(FUVw[cl[bad[cl]]])] = True
             g = IslandGraph(FUVw, shell, len(work), locked=locked & ~(held & own)) if (held & own).any() else graph
             out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, **kw)
-            if out is None and locked[np.unique(FUVw[cl])].any():  # a fold of twin halves that share their rows
-                out, info = repair_twin_layers(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl, dens,
-                                               allowed_cache=twin_allowed, **kw)
-                if out is not None:
-                    out = out * sgn
-                    twin_done = np.union1d(twin_done, info["faces"])
-                    FUVw = info["FUV"]
-                    if len(out) > len(work):  # a layer re-solved in pieces: its faces and their twins on new rows
-                        locked = np.r_[locked, np.zeros(len(out) - len(work), bool)]
-                        held = np.r_[held, np.zeros(len(out) - len(work), bool)]
-                        graph = IslandGraph(FUVw, shell, len(out), locked=locked)
+            twins = out is None and locked[np.unique(FUVw[cl])].any()  # a fold of twin halves sharing their rows?
+            if twins:  # in the halves' layers, locally first (the whole layer is a later resort)
+                out, info = _twin(False)
             if out is None and locked[np.unique(FUVw[cl])].any() and not budget_spent(deadline):
                 # a fold on the seam of two shells that share their rows there (mirrored halves joined along the
                 # mirror line): repaired with both shells' rows free, each face in its own shell's orientation
@@ -120,6 +132,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 if out is not None:
                     out = out * sgn
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
+            before_split = (work, FUVw, locked, held, graph)
             if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
                 new = len(work) + np.arange(len(split))
                 work = np.vstack([work, work[split]])
@@ -134,6 +147,12 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
                 if out is not None:
                     info = {**info, "split_rows": int(len(split))}
+            if out is None and twins and not budget_spent(deadline):  # the twin halves' whole layer, unsplit
+                after_split = (work, FUVw, locked, held, graph)
+                work, FUVw, locked, held, graph = before_split
+                out, info = _twin(True)
+                if out is None:
+                    work, FUVw, locked, held, graph = after_split
             if out is None and budget_spent(deadline):
                 actions[i].append({"step": "left undone", "cluster_faces": int(len(cl)), "shell": int(k),
                                    "reason": "the time budget was spent"})
@@ -405,7 +424,7 @@ def twin_layers(F, FUV, faces):
     return connected_components(A, directed=False)[1], twin
 
 
-def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, allowed_cache=None, **kw):
+def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, allowed_cache=None, **kw):
     """Repair a fold of twin halves in their layers (:func:`twin_layers`), each in its own orientation.
 
     In each layer the cluster's faces (or their twins) lie in, the faces reversed against the layer (the
@@ -420,6 +439,9 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, allowed_cache=
     UV : (p,2) float array (not modified)
     island, cluster : int arrays, the island's faces and the fold's
     scale : float, the island's texel density
+    whole : bool
+        When no local region works, untangle the whole layer (its locked rows kept), else re-solve a layer
+        whose rows only its twins share as a chart; with False such a fold is left (None) for other steps.
     allowed_cache : dict, optional
         The face pairs of each layer that overlap on purpose (:func:`intended_overlaps`, with every face
         reversed against the layer broken), filled on first use and read by the island's later folds.
@@ -463,6 +485,8 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, allowed_cache=
                 allowed_cache[key] = allowed
         res, info = repair_cluster(Vn, F, work, FUV, IslandGraph(FUV, fl, len(work), locked=locked), targets, scale,
                                    **{**kw, "allowed": allowed})
+        if res is None and not whole:
+            return None, info
         if res is None:  # the whole layer free (its locked rows kept)
             rows = np.setdiff1d(np.unique(FUV[fl]), np.flatnonzero(locked))
             res, info = untangle_faces(Vn, F, work, FUV, fl, rows, scale, allowed, deadline=kw.get("deadline"))
