@@ -1,11 +1,13 @@
 #!/usr/bin/env python
 """Texture repair of the authored assets under more damage seeds than ``bench authored`` runs.
 
-    NEURALUV_DATA=.cache/neuraluv-data python data_scripts/authored_damage_sweep.py [FIRST LAST]
+    NEURALUV_DATA=.cache/neuraluv-data python data_scripts/authored_damage_sweep.py [FIRST LAST] [--more] [FILE ...]
 
-For every authored asset (``make data``) and seeds ``FIRST..LAST-1`` (default 10..13) of the benchmark's
-three damages (:func:`neuraluv_paper.bench.authored._damaged`: a local fold on the largest island, 1%
-vertex noise, three NaN rows), :func:`~neuraluv.repair.repair_layout` under the ``texture`` purpose with
+For every authored asset (``make data``; or the layout files named) and seeds ``FIRST..LAST-1`` (default
+10..13) of the benchmark's three damages (:func:`neuraluv_paper.bench.authored._damaged`: a local fold on
+the largest island, 1% vertex noise, three NaN rows), and with ``--more`` four the benchmark does not make
+(on the largest island: one row dragged six edge lengths away, a 2-ring patch turned over, a 2-ring patch of
+NaN rows, three 1-ring folds), :func:`~neuraluv.repair.repair_layout` under the ``texture`` purpose with
 the CLI's tolerance, in process, one thread (torch and BLAS). Prints per case whether the result is
 valid, the share of the faces the damage left alone that stayed bit-identical, of all faces, and the
 seconds; a summary per damage; and flags (``<--``) the cases that are not valid, keep less than 90% of
@@ -14,11 +16,36 @@ the faces outside the damage, or take over 10 s. Figures quoted in the issue-27 
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
 
-def main(first=10, last=14):
+def _more(kind, V, F, UV, FUV, seed):
+    """The damages the benchmark does not make, on the largest island (:mod:`neuraluv_paper.damage`)."""
+    from neuraluv.layout.facts import layout_facts
+    from neuraluv_paper import damage
+
+    f = layout_facts(V, F, UV, FUV)
+    if not f.n_islands:
+        raise ValueError("no usable island")
+    rows = np.unique(FUV[f.island_faces(int(np.argmax(np.bincount(f.label[f.label >= 0]))))])
+    if kind == "spike":
+        return damage.spike(V, F, UV, FUV, seed=seed, rows=rows)[0]
+    if kind == "patch turned over":
+        return damage.flip_patch(V, F, UV, FUV, rings=2, seed=seed, rows=rows)[0]
+    if kind == "NaN patch":
+        return damage.nan_patch(V, F, UV, FUV, rings=2, seed=seed, rows=rows)[0]
+    out = UV
+    for k in range(3):  # three folds
+        out = damage.local_fold(V, F, out, FUV, rings=1, seed=7 * seed + k, rows=rows)[0]
+    return out
+
+
+MORE = ("spike", "patch turned over", "NaN patch", "three folds")
+
+
+def main(first=10, last=14, more=False, files=()):
     warnings.filterwarnings("ignore")
     import torch
     from threadpoolctl import threadpool_limits
@@ -30,19 +57,21 @@ def main(first=10, last=14):
     from neuraluv_paper.bench.authored import _damaged
 
     torch.set_num_threads(1)
-    names = [n for n in sorted(datasets.AUTHORED) if n.endswith((".obj", ".glb"))]
+    names = list(files) or [n for n in sorted(datasets.AUTHORED) if n.endswith((".obj", ".glb"))]
+    kinds = ("local fold", "vertex noise", "NaN UVs") + (MORE if more else ())
     tally = {}
     with threadpool_limits(1, "blas"):
         for name in names:
             try:
-                V, F, UV, FUV, _ = read_layout(datasets.authored_path(name))
+                V, F, UV, FUV, _ = read_layout(name if files else datasets.authored_path(name))
             except datasets.DataMissing as exc:
                 print(f"authored_damage_sweep: {exc}")
                 return 2
-            for kind in ("local fold", "vertex noise", "NaN UVs"):
+            name = Path(name).name
+            for kind in kinds:
                 for seed in range(first, last):
                     try:
-                        bad = _damaged(kind, V, F, UV, FUV, seed)
+                        bad = (_more if kind in MORE else _damaged)(kind, V, F, UV, FUV, seed)
                     except ValueError:  # the island is too small for this damage
                         continue
                     moved = ~((bad == UV) | (np.isnan(bad) & np.isnan(UV))).all(1)
@@ -65,4 +94,6 @@ def main(first=10, last=14):
 
 
 if __name__ == "__main__":
-    sys.exit(main(*map(int, sys.argv[1:3])))
+    args = sys.argv[1:]
+    nums = [int(a) for a in args[:2] if a.isdigit()]
+    sys.exit(main(*nums, more="--more" in args, files=[a for a in args if not a.isdigit() and a != "--more"]))

@@ -12,8 +12,8 @@ import scipy.sparse as sp
 
 from neuraluv.metrics import face_dets
 
-__all__ = ["row_rings", "boundary_rows", "local_fold", "vertex_noise", "mirror_island", "overlap_islands", "push_out",
-           "nan_patch", "DAMAGE"]
+__all__ = ["row_rings", "boundary_rows", "local_fold", "vertex_noise", "spike", "flip_patch", "mirror_island",
+           "overlap_islands", "push_out", "nan_patch", "DAMAGE"]
 
 
 def _adjacency(FUV, n_rows):
@@ -107,6 +107,48 @@ def vertex_noise(V, F, UV, FUV, *, fraction=0.02, sigma=0.8, seed=0, rows=None):
     out[pick] += rng.normal(scale=sigma * _edge_length(UV, FUV), size=(k, 2))
     flipped = int((~(face_dets(V, F, out, FUV) > 0)).sum())
     return out, {"rows": int(k), "flipped": flipped}
+
+
+def spike(V, F, UV, FUV, *, length=6.0, seed=0, rows=None):
+    """Drag one random row ``length`` median edge lengths away in a random direction (a mis-click in a UV editor).
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> from neuraluv.tutte import tutte
+    >>> V, F = disk(6); UV = tutte(V, F)
+    >>> out, info = spike(V, F, UV, F, seed=1)
+    >>> int((out != UV).any(1).sum()), info["flipped"]
+    (1, 2)
+    """
+    rng = np.random.default_rng(seed)
+    UV = np.asarray(UV, float)
+    r = int(rng.choice(np.unique(FUV) if rows is None else np.asarray(rows)))
+    ang = rng.uniform(0, 2 * np.pi)
+    out = UV.copy()
+    out[r] += length * _edge_length(UV, FUV) * np.array([np.cos(ang), np.sin(ang)])
+    return out, {"row": r, "flipped": int((~(face_dets(V, F, out, FUV) > 0)).sum())}
+
+
+def flip_patch(V, F, UV, FUV, *, rings=2, seed=0, rows=None):
+    """Mirror the rows within ``rings`` rings of a random interior row about their mean ``u`` (a patch turned over).
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk
+    >>> from neuraluv.tutte import tutte
+    >>> V, F = disk(8); UV = tutte(V, F)
+    >>> out, info = flip_patch(V, F, UV, F, seed=0)
+    >>> info["rows"], int((out != UV).any(1).sum()), info["flipped"]
+    (19, 19, 28)
+    """
+    rng = np.random.default_rng(seed)
+    UV = np.asarray(UV, float)
+    c = _interior_center(FUV, len(UV), rings, rng, rows)
+    inside = row_rings(FUV, len(UV), c, rings) >= 0
+    out = UV.copy()
+    out[inside, 0] = 2.0 * out[inside, 0].mean() - out[inside, 0]
+    return out, {"center": c, "rows": int(inside.sum()), "flipped": int((~(face_dets(V, F, out, FUV) > 0)).sum())}
 
 
 def _island_rows(FUV, faces):

@@ -448,3 +448,21 @@ def test_the_seam_of_mirrored_halves_is_placed_where_the_surface_puts_it():
     # and where nothing is wrong, nothing moves
     sign, sh, moved = seam_signs(V, F, UV, F, IslandGraph(F, np.arange(len(F)), len(UV)), near, truth, shell)
     assert np.array_equal(sign, truth) and len(moved) == 0
+
+
+def test_a_fold_where_a_shell_lies_over_itself_is_repaired_locally():
+    # z -> z^2 maps a disk onto itself twice, every face positive: a shell laid over itself on purpose (as a Smart UV
+    # projection's sliver can be). A fold near the branch point cannot go back without overlapping the other sheet,
+    # so no region is free of overlaps near it; the repair keeps the overlaps of faces that were laid over the
+    # shell before and changes only a neighbourhood of the fold, not the whole shell
+    from neuraluv import datasets
+
+    V, F = datasets.disk(10)
+    z = V[:, 0] + 1j * V[:, 1]
+    UV = np.c_[(z ** 2).real, (z ** 2).imag] * 0.4 + 0.5
+    assert repair_layout(V, F, UV, F, purpose="texture").changed_faces.sum() == 0  # as made: intent only
+    bad, info = damage.local_fold(V, F, UV, F, rings=1, seed=0, rows=np.flatnonzero(np.abs(z) < 0.45))
+    res = repair_layout(V, F, bad, F, purpose="texture")
+    assert info["flipped"] > 0 and res.after.ok
+    assert res.changed_faces.sum() < 0.15 * len(F)
+    assert any(a.get("kept_overlaps") for isl in res.islands for a in isl["actions"])

@@ -76,7 +76,8 @@ class IslandGraph:
 def region_overlaps(UV, FUV, region, island, allowed=None, group=None):
     """Number of overlapping triangle pairs with a face in ``region`` among the ``island``'s faces (exact).
 
-    ``allowed``: a set of face pairs ``(i, j)``, ``i < j``, that overlapped before on purpose (a texture
+    ``allowed``: a set of face pairs ``(i, j)``, ``i < j`` (or any container answering ``in`` for them,
+    :class:`~neuraluv.repair.shells.PairsWith`), that overlapped before on purpose (a texture
     layout's shell may lie over itself); they are not counted. Nor are twins (two faces on the same three rows:
     copies stacked on purpose, which no move of their rows can part). With ``group`` ((m,) int array), only
     pairs of one group count (the shells of an island stacked on each other overlap on purpose).

@@ -39,7 +39,7 @@ ACROSS_RINGS = 2
 #: Rings around a fold on a seam in which :func:`seam_signs` places the seam anew.
 SEAM_RINGS = 2
 
-__all__ = ["repair_shells", "repair_across_shells", "seam_signs", "intended_overlaps", "twin_layers",
+__all__ = ["repair_shells", "repair_across_shells", "seam_signs", "intended_overlaps", "PairsWith", "twin_layers",
            "repair_twin_layers", "layer_sign", "twin_layers_hold"]
 
 
@@ -147,6 +147,24 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **kw)
                 if out is not None:
                     info = {**info, "split_rows": int(len(split))}
+            if out is None and only is None and not budget_spent(deadline):
+                # the last local step of the first pass (a second pass reads sheets the first one changed, and may
+                # not trust them): the faces of the shell that lay over another part of it before may overlap (a fold
+                # where the shell lies over itself: which overlaps near it were there on purpose, and where its faces
+                # go back to, the damaged layout cannot tell); no other face is laid over the shell, and outside
+                # folds overlaps are no problem under this purpose
+                a, b = overlap_pairs(before_split[0], before_split[1], shell)
+                if len(a):
+                    laid = np.zeros(len(F), bool)
+                    laid[a] = laid[b] = True
+                    every = PairsWith(allowed, laid)
+                    after_split = (work, FUVw, locked, held, graph)
+                    work, FUVw, locked, held, graph = before_split
+                    out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **{**kw, "allowed": every})
+                    if out is None:
+                        work, FUVw, locked, held, graph = after_split
+                    else:
+                        info = {**info, "kept_overlaps": True}
             if out is None and twins and not budget_spent(deadline):  # the twin halves' whole layer, unsplit
                 after_split = (work, FUVw, locked, held, graph)
                 work, FUVw, locked, held, graph = before_split
@@ -176,7 +194,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 continue
             work = out
             actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows",
-                                                      "split_rows", "seam_faces") if kk in info}
+                                                      "split_rows", "seam_faces", "kept_overlaps") if kk in info}
                               | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
                                  **({"mirrored_shell": True} if flip else {})})
         UVw = work * np.array([-1.0, 1.0]) if flip else work
@@ -354,6 +372,27 @@ def seam_signs(Vn, F, UV, FUV, graph, cluster, sign, shell, rings=SEAM_RINGS):
                 shell[f] = shell[nb[0]]
                 left.discard(f)
     return sign, shell, moved
+
+
+class PairsWith:
+    """Face pairs a repaired region may keep (:func:`~neuraluv.repair.local.region_overlaps`' ``allowed``): the pairs
+    of ``pairs`` and every pair with a face of ``faces`` ((m,) bool).
+
+    Examples
+    --------
+    >>> ok = PairsWith({(0, 5)}, np.array([False, False, True, False, False, False]))
+    >>> [(0, 5) in ok, (2, 4) in ok, (1, 3) in ok]
+    [True, True, False]
+    """
+
+    def __init__(self, pairs, faces):
+        self.pairs, self.faces = set(pairs or ()), np.asarray(faces, bool)
+
+    def __contains__(self, pair):
+        return pair in self.pairs or bool(self.faces[pair[0]] or self.faces[pair[1]])
+
+    def __bool__(self):
+        return bool(self.pairs) or bool(self.faces.any())
 
 
 def intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
