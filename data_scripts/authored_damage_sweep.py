@@ -23,13 +23,10 @@ import numpy as np
 
 def _more(kind, V, F, UV, FUV, seed):
     """The damages the benchmark does not make, on the largest island (:mod:`neuraluv_paper.damage`)."""
-    from neuraluv.layout.facts import layout_facts
     from neuraluv_paper import damage
+    from neuraluv_paper.bench.authored import largest_island_rows
 
-    f = layout_facts(V, F, UV, FUV)
-    if not f.n_islands:
-        raise ValueError("no usable island")
-    rows = np.unique(FUV[f.island_faces(int(np.argmax(np.bincount(f.label[f.label >= 0]))))])
+    rows = largest_island_rows(V, F, UV, FUV)
     if kind == "spike":
         return damage.spike(V, F, UV, FUV, seed=seed, rows=rows)[0]
     if kind == "patch turned over":

@@ -53,6 +53,11 @@ def _edge_length(UV, FUV):
     return float(np.median(np.linalg.norm(P[:, 1] - P[:, 0], axis=1)))
 
 
+def _flipped(V, F, UV, FUV):
+    """Faces of the damaged layout that are flipped or degenerate (``det J <= 0``)."""
+    return int((~(face_dets(V, F, UV, FUV) > 0)).sum())
+
+
 def _interior_center(FUV, n_rows, rings, rng, candidates=None):
     bd = boundary_rows(FUV, n_rows)
     A = _adjacency(FUV, n_rows)
@@ -91,7 +96,7 @@ def local_fold(V, F, UV, FUV, *, rings=3, strength=2.5, seed=0, rows=None):
     d = np.array([np.cos(ang), np.sin(ang)]) * strength * rings * _edge_length(UV, FUV)
     out = UV.copy()
     out[inside] += w[inside, None] * d
-    flipped = int((~(face_dets(V, F, out, FUV) > 0)).sum())
+    flipped = _flipped(V, F, out, FUV)
     touched = int(inside[np.asarray(FUV)].any(1).sum())
     return out, {"center": c, "rows": int(inside.sum()), "faces": touched, "flipped": flipped}
 
@@ -105,7 +110,7 @@ def vertex_noise(V, F, UV, FUV, *, fraction=0.02, sigma=0.8, seed=0, rows=None):
     pick = rng.choice(pool, size=k, replace=False)
     out = UV.copy()
     out[pick] += rng.normal(scale=sigma * _edge_length(UV, FUV), size=(k, 2))
-    flipped = int((~(face_dets(V, F, out, FUV) > 0)).sum())
+    flipped = _flipped(V, F, out, FUV)
     return out, {"rows": int(k), "flipped": flipped}
 
 
@@ -127,7 +132,7 @@ def spike(V, F, UV, FUV, *, length=6.0, seed=0, rows=None):
     ang = rng.uniform(0, 2 * np.pi)
     out = UV.copy()
     out[r] += length * _edge_length(UV, FUV) * np.array([np.cos(ang), np.sin(ang)])
-    return out, {"row": r, "flipped": int((~(face_dets(V, F, out, FUV) > 0)).sum())}
+    return out, {"row": r, "flipped": _flipped(V, F, out, FUV)}
 
 
 def flip_patch(V, F, UV, FUV, *, rings=2, seed=0, rows=None):
@@ -148,7 +153,7 @@ def flip_patch(V, F, UV, FUV, *, rings=2, seed=0, rows=None):
     inside = row_rings(FUV, len(UV), c, rings) >= 0
     out = UV.copy()
     out[inside, 0] = 2.0 * out[inside, 0].mean() - out[inside, 0]
-    return out, {"center": c, "rows": int(inside.sum()), "flipped": int((~(face_dets(V, F, out, FUV) > 0)).sum())}
+    return out, {"center": c, "rows": int(inside.sum()), "flipped": _flipped(V, F, out, FUV)}
 
 
 def _island_rows(FUV, faces):

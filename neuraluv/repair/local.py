@@ -140,9 +140,19 @@ def island_esds(Vn, F, UV, FUV, groups, scales):
 FAR_QUANTILE = 0.75
 
 
+def _face_sd(Vn, F, UV, FUV, faces, scale, sign=None):
+    """Per-face ``(det J, E_SD)`` of ``faces`` with the layout scaled by ``1/scale``; a face whose ``sign`` ((m,) ±1)
+    is -1 is valid reversed and measured mirrored (the same E_SD, det J > 0)."""
+    J = corner_jacobians(Vn, F[faces], UV / scale, FUV[faces])[0]
+    if sign is not None:
+        J[:, 0, :] *= np.asarray(sign)[faces][:, None]
+    fm = face_metrics(J)
+    return fm["det"], fm["sd"]
+
+
 def _far_esd(Vn, F, UV, FUV, faces, scale, q=FAR_QUANTILE):
     """The ``q`` quantile of the per-face E_SD of ``faces`` with the layout scaled by ``1/scale``."""
-    sd = face_metrics(corner_jacobians(Vn, F[faces], UV / scale, FUV[faces])[0])["sd"]
+    sd = _face_sd(Vn, F, UV, FUV, faces, scale)[1]
     return float(np.quantile(sd, q)) if len(sd) else float("inf")
 
 
@@ -167,11 +177,8 @@ def _hurt_rows(Vn, F, UV, FUV, graph, cluster, seed_rows, scale, band_tol, sign)
     hurt = np.zeros(len(F), bool)
     hurt[cluster] = True
     if len(far):
-        both = np.r_[near, far]
-        J = corner_jacobians(Vn, F[both], UV / scale, FUV[both])[0]
-        J[:, 0, :] *= sign[both][:, None]  # a face valid reversed, mirrored: the same E_SD, det J > 0
-        fm = face_metrics(J)
-        det, sd, sd_far = fm["det"][:len(near)], fm["sd"][:len(near)], fm["sd"][len(near):]
+        det, sd_all = _face_sd(Vn, F, UV, FUV, np.r_[near, far], scale, sign)
+        det, sd, sd_far = det[:len(near)], sd_all[:len(near)], sd_all[len(near):]
         sd_far = sd_far[np.isfinite(sd_far)]
         if len(sd_far):
             with np.errstate(invalid="ignore"):

@@ -87,6 +87,18 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 held = np.r_[held, np.zeros(len(res) - len(work), bool)]
                 graph = IslandGraph(FUVw, shell, len(res), locked=locked)
         return res, inf
+
+    def _unsplit(step):
+        """``step()`` on the shell as it was before the split copies of its shared rows; if it fails (None), the
+        split is kept for the steps after it."""
+        nonlocal work, FUVw, locked, held, graph
+        after_split = (work, FUVw, locked, held, graph)
+        work, FUVw, locked, held, graph = before_split
+        res, inf = step()
+        if res is None:
+            work, FUVw, locked, held, graph = after_split
+        return res, inf
+
     for k in np.unique(it.shell[bad]):
         shell = it.shell_faces(k)
         i = int(it.shell_island[k])
@@ -109,7 +121,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         dens = facts.density[i] if np.isfinite(facts.density[i]) else med
         targets = shell[bad[shell]]
         graph = IslandGraph(FUVw, shell, len(work), locked=locked)
-        allowed = intended_overlaps(work, FUVw, shell, bad, IslandGraph(FUVw, shell, len(work)))
+        allowed = intended_overlaps(work, FUVw, shell, bad, graph)  # (it reads the faces' rows, not the locks)
         targets = with_stretched_neighbours(Vn, F, work, FUVw, shell, targets)
         for cl in face_clusters(FUVw, targets):
             if (face_dets_of(Vn, F, work, FUVw, cl) > 0).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
@@ -158,19 +170,12 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                     laid = np.zeros(len(F), bool)
                     laid[a] = laid[b] = True
                     every = PairsWith(allowed, laid)
-                    after_split = (work, FUVw, locked, held, graph)
-                    work, FUVw, locked, held, graph = before_split
-                    out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **{**kw, "allowed": every})
-                    if out is None:
-                        work, FUVw, locked, held, graph = after_split
-                    else:
+                    out, info = _unsplit(lambda: repair_cluster(Vn, F, work, FUVw, graph, cl, dens,
+                                                                **{**kw, "allowed": every}))
+                    if out is not None:
                         info = {**info, "kept_overlaps": True}
             if out is None and twins and not budget_spent(deadline):  # the twin halves' whole layer, unsplit
-                after_split = (work, FUVw, locked, held, graph)
-                work, FUVw, locked, held, graph = before_split
-                out, info = _twin(True)
-                if out is None:
-                    work, FUVw, locked, held, graph = after_split
+                out, info = _unsplit(lambda: _twin(True))
             if out is None and budget_spent(deadline):
                 actions[i].append({"step": "left undone", "cluster_faces": int(len(cl)), "shell": int(k),
                                    "reason": "the time budget was spent"})
@@ -237,7 +242,7 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
     graph = IslandGraph(FUV, inside, len(UV), locked=locked)
     allowed = None if allowed_cache is None else allowed_cache.get(int(island))
     if allowed is None:
-        allowed = intended_overlaps(UV, FUV, inside, bad, IslandGraph(FUV, inside, len(UV)))
+        allowed = intended_overlaps(UV, FUV, inside, bad, graph)
         if allowed_cache is not None:
             allowed_cache[int(island)] = allowed
     out, info = repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, **{**kw, "allowed": allowed},
@@ -251,7 +256,7 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
             if not bad[moved].all():  # faces the cut turned over are broken too: their overlaps are not intended
                 bad2 = bad.copy()
                 bad2[moved] = True
-                allowed = intended_overlaps(UV, FUV, inside, bad2, IslandGraph(FUV, inside, len(UV)))
+                allowed = intended_overlaps(UV, FUV, inside, bad2, graph)
             out, info = repair_cluster(Vn, F, UV, FUV, graph, np.union1d(cluster, moved), scale,
                                        **{**kw, "allowed": allowed}, sign=sign2, group=group2,
                                        max_fraction=ACROSS_FRACTION, max_rings=ACROSS_RINGS)
@@ -514,16 +519,16 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
         others = ~mine & ~((twin >= 0) & mine[np.maximum(twin, 0)])  # faces outside the layer, no twin in it
         locked = np.zeros(len(UV), bool)
         locked[np.unique(FUV[island[others]])] = True
+        graph = IslandGraph(FUV, fl, len(work), locked=locked)
         key = (int(island[0]), int(lay), len(work))  # (new rows: a layer re-solved in pieces, read anew)
         allowed = None if allowed_cache is None else allowed_cache.get(key)
         if allowed is None:  # every face reversed against the layer is broken, this fold's or another's
             bad = np.zeros(len(F), bool)
             bad[fl[reversed_]] = True
-            allowed = intended_overlaps(work, FUV, fl, bad, IslandGraph(FUV, fl, len(work)))
+            allowed = intended_overlaps(work, FUV, fl, bad, graph)
             if allowed_cache is not None:
                 allowed_cache[key] = allowed
-        res, info = repair_cluster(Vn, F, work, FUV, IslandGraph(FUV, fl, len(work), locked=locked), targets, scale,
-                                   **{**kw, "allowed": allowed})
+        res, info = repair_cluster(Vn, F, work, FUV, graph, targets, scale, **{**kw, "allowed": allowed})
         if res is None and not whole:
             return None, info
         if res is None:  # the whole layer free (its locked rows kept)

@@ -35,7 +35,7 @@ from neuraluv.layout.facts import layout_facts
 from neuraluv_paper import damage
 from neuraluv_paper.bench.provenance import BenchOutput, command_line, machine_info, markdown_table, write_csv, write_markdown
 
-__all__ = ["bench", "add_arguments", "run"]
+__all__ = ["bench", "add_arguments", "run", "largest_island_rows"]
 
 #: Companion files an asset needs beside it (its materials and images).
 _COMPANIONS = {"capsule.obj": ["capsule.mtl", "capsule0.jpg"], "fuze.obj": ["fuze.obj.mtl", "fuze uv.jpg"],
@@ -58,12 +58,16 @@ def _cli(argv):
     return code, out.getvalue(), err.getvalue(), time.perf_counter() - t0
 
 
-def _damaged(kind, V, F, UV, FUV, seed):
+def largest_island_rows(V, F, UV, FUV):
+    """The ``vt`` rows of the layout's largest island (by faces), where the damage goes."""
     f = layout_facts(V, F, UV, FUV)
     if not f.n_islands:
         raise ValueError("no usable island")
-    big = int(np.argmax(np.bincount(f.label[f.label >= 0])))
-    rows = np.unique(FUV[f.island_faces(big)])
+    return np.unique(FUV[f.island_faces(int(np.argmax(np.bincount(f.label[f.label >= 0]))))])
+
+
+def _damaged(kind, V, F, UV, FUV, seed):
+    rows = largest_island_rows(V, F, UV, FUV)
     if kind == "local fold":
         for rings in (2, 1):
             try:
