@@ -274,7 +274,7 @@ def _findings(summary):
                       f"{LABELS[v]}: {fraction(z['valid'], z['n'], 'valid')}, E_SD {fmt_num(z['esd'])}{_pm(z['esd_sd'])}, "
                       f"min det {fmt_num(z['min_det'])}, {fmt_num(z['time'], 1)} s; full: {fmt_num(f['esd'])}"
                       f"{_pm(f['esd_sd'])}, min det {fmt_num(f['min_det'])}, {fmt_num(f['time'], 1)} s (the preset's budget; "
-                      "times from one shared CPU)"))
+                      "both timed on the machine below)"))
     for v in ("spectral init", "random init"):
         if v in S:
             s = S[v]
