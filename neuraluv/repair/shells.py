@@ -23,7 +23,6 @@ from neuraluv.repair.local import (
     repair_cluster,
     resolve_as_chart,
     untangle_faces,
-    with_stretched_neighbours,
 )
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.topology import undirected_edges
@@ -119,10 +118,12 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         sgn = np.array([-1.0, 1.0]) if flip else np.ones(2)  # work * sgn: the layout as it is
         work = UVw * sgn if flip else UVw
         dens = facts.density[i] if np.isfinite(facts.density[i]) else med
+        # the folds' own faces: the rows their damage moved beyond them are the region steps' damaged rows
+        # (repair_cluster); adding the shell's stretched faces near a fold (as the bake path does) changed faces of the
+        # artist's own stretch: on Duck.glb 286 faces for its 46 authored folds, 194 without
         targets = shell[bad[shell]]
         graph = IslandGraph(FUVw, shell, len(work), locked=locked)
         allowed = intended_overlaps(work, FUVw, shell, bad, graph)  # (it reads the faces' rows, not the locks)
-        targets = with_stretched_neighbours(Vn, F, work, FUVw, shell, targets)
         for cl in face_clusters(FUVw, targets):
             if (face_dets_of(Vn, F, work, FUVw, cl) > 0).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
                 continue  # fixed by an earlier cluster's region
