@@ -9,19 +9,16 @@ the region overlapping another of the island):
    damage moved, read as the rows near the cluster whose every face is folded or more distorted than
    most faces further out; then 0, 1, 2, 3, 4, 6, 8, … rings of texture vertices around the cluster.
    The rows in the region move, its outer ring stays pinned; :func:`~neuraluv.repair.untangle.untangle`
-   (Garanzha et al. 2021) removes the folds, :func:`~neuraluv.repair.untangle.polish`
-   lowers the paper's stable objective with flip-free steps. The first region
-   that works (unless it is the damaged rows, which already hold them) is then
-   grown one ring at a time while the next ring holds damaged rows, is more
-   distorted than the faces further out and growing lowers the distortion by
-   more than 1% (rows the damage moved without folding them are freed too);
-   when the polish stops on its iteration cap, the neural solver continues from
-   it (step 2's solver);
-2. **the neural solver on the region with its ring pinned**, from a Tutte map of
-   the region inside its pinned ring (when that start is valid): the paper's
-   SIREN reparameterization with LBO features, residual on the start, every
-   step validity-checked; the pinned rows are held by a zero mask on the
-   network's output (:class:`~neuraluv.solver.engine.ChartBatch`);
+   (Garanzha et al. 2021) removes the folds, :func:`~neuraluv.repair.untangle.polish` lowers the paper's
+   stable objective with flip-free steps. The first region that works (unless it is the damaged rows, which
+   already hold them) is then grown one ring at a time while the next ring holds damaged rows, is more
+   distorted than the faces further out and growing lowers the distortion by more than 1% (rows the damage
+   moved without folding them are freed too); when the polish stops on its iteration cap, the neural solver
+   continues from it (step 2's solver);
+2. **the neural solver on the region with its ring pinned**, from a Tutte map of the region inside its
+   pinned ring (when that start is valid): the paper's SIREN reparameterization with LBO features, residual
+   on the start, every step validity-checked; the pinned rows are held by a zero mask on the network's
+   output (:class:`~neuraluv.solver.engine.ChartBatch`);
 3. **the whole island, untangled** with a free boundary (every row moves);
 4. otherwise the caller re-solves the whole island as a chart (the last resort).
 """
@@ -41,8 +38,8 @@ from neuraluv.repair.untangle import RegionEnergy, budget_spent, polish, untangl
 from neuraluv.solver.config import get_config
 
 __all__ = ["RING_SCHEDULE", "FAR_QUANTILE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region",
-           "region_esd", "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces", "with_stretched_neighbours",
-           "resolve_as_chart"]
+           "region_esd", "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces",
+           "with_stretched_neighbours", "resolve_as_chart"]
 
 #: Ring counts tried around a fold, in order.
 RING_SCHEDULE = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
@@ -281,8 +278,8 @@ def _try_neural(Vn, F, UV, FUV, region, free, scale, config, seed, device, deadl
 
 
 def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed=0, device="cpu", deadline=None,
-                   max_fraction=0.5, max_rings=None, neural=True, max_extra_rings=8, grow_gain=0.01, band_tol=0.1,
-                   allowed=None, sign=None, group=None):
+                   max_fraction=0.5, max_rings=None, min_rings=None, neural=True, max_extra_rings=8, grow_gain=0.01,
+                   band_tol=0.1, allowed=None, sign=None, group=None):
     """Repair one fold cluster in the smallest region that works (see the module docstring).
 
     Parameters
@@ -304,8 +301,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         For the neural step.
     max_fraction : float
         Stop growing rings when the region holds more than this fraction of the island.
-    max_rings : int, optional
-        Nor try more than this many rings around the cluster.
+    max_rings, min_rings : int, optional
+        Nor try more than ``max_rings`` rings around the cluster; with ``min_rings``, only regions of at least
+        that many rings (the smaller ones were tried before).
     neural : bool
         Allow the neural steps.
     max_extra_rings, grow_gain, band_tol : int, float, float
@@ -387,6 +385,8 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     schedule = ([-1] if inner.any() and (inner != seed_rows).any() else []) \
         + ([-2] if (hurt != inner).any() and (hurt != seed_rows).any() else []) \
         + [r for r in RING_SCHEDULE if max_rings is None or r <= max_rings]
+    if min_rings is not None:
+        schedule = [r for r in schedule if r >= min_rings]
     rows = seed_rows.copy()
     done_r = 0
     last = None
