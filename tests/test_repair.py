@@ -165,6 +165,28 @@ def test_a_fold_on_a_regular_layout_changes_only_the_faces_the_damage_touched():
         assert res.islands[0]["actions"][0]["rings"] == -2
 
 
+def test_a_fold_beside_a_band_the_artist_stretched_leaves_the_band_along_its_length():
+    # the artist squeezed columns 5-8 of a grid eightfold in u; a fold next to them is repaired without re-solving
+    # the squeezed band along its whole length (its faces read as "stretched neighbours" of the fold: at c73eee0's
+    # rule, 112-115 faces the damage did not touch changed, from the bottom row to the top)
+    n = 12
+    x, y = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
+    V = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+    q = np.array([[i + (n + 1) * j, i + 1 + (n + 1) * j, i + n + 2 + (n + 1) * j, i + n + 1 + (n + 1) * j]
+                  for j in range(n) for i in range(n)])
+    F = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+    UV = np.c_[np.interp(x.ravel(), [0, 5, 8, n], [0, 5, 5 + 3 / 8, 5 + 3 / 8 + n - 8]), y.ravel()] / n
+    cy = V[F, 1].mean(1)
+    for seed in (1, 2, 3):
+        bad, info = damage.local_fold(V, F, UV, F, rings=1, seed=seed, rows=np.array([4 + (n + 1) * 6]))
+        assert info["flipped"] > 0
+        res = repair_layout(V, F, bad, F, purpose="texture")
+        damaged = (bad != UV).any(1)[F].any(1)
+        assert res.after.ok
+        far = (cy < cy[damaged].min() - 3.5) | (cy > cy[damaged].max() + 3.5)  # more than 3 rows from the damage
+        assert not (res.changed_faces & far).any()
+
+
 def test_mirrored_island_is_reflected_not_resolved():
     V, F, UV, FUV, a, b = two_islands()
     uv, _ = damage.mirror_island(UV, FUV, a)
