@@ -22,7 +22,7 @@ Every other ``vt`` row stays bit-identical; the result records, per island,
 what changed (faces, rows, the largest UV displacement in texels) and the
 before/after distortion. A layout with nothing wrong is returned unchanged.
 
-Size: the escalation of :func:`repair_layout` (reflect, local, whole island, new charts, separation) and its report are read top to bottom as one procedure; the steps themselves live in :mod:`~neuraluv.repair.local`, :mod:`~neuraluv.repair.untangle`, :mod:`~neuraluv.repair.shells` (the texture purpose), :mod:`~neuraluv.repair.separate` (step 5) and :mod:`neuraluv.layout` (facts, purpose, overlaps, placement, packing).
+Size: the escalation of :func:`repair_layout` (reflect, local, whole island, new charts, separation) and its report are read top to bottom as one procedure; the steps themselves live in :mod:`~neuraluv.repair.local`, :mod:`~neuraluv.repair.untangle`, :mod:`~neuraluv.repair.shells` (the texture purpose; its twin layers in :mod:`~neuraluv.repair.twins`), :mod:`~neuraluv.repair.separate` (step 5) and :mod:`neuraluv.layout` (facts, purpose, overlaps, placement, packing).
 """
 from __future__ import annotations
 

@@ -9,13 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
-from neuraluv.jacobian import signed_areas_2d
-from neuraluv.layout.facts import face_clusters, holds_more
+from neuraluv.layout.facts import face_clusters
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent
-from neuraluv.meshfix import face_areas
 from neuraluv.repair.local import (
     IslandGraph,
     face_dets_of,
@@ -24,6 +21,7 @@ from neuraluv.repair.local import (
     resolve_as_chart,
     untangle_faces,
 )
+from neuraluv.repair.twins import layer_sign, twin_layers, twin_layers_hold, twins_follow
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.topology import undirected_edges
 
@@ -35,18 +33,17 @@ ACROSS_FRACTION = 0.1
 #: one ring of the fold, while the 43 that failed took 12.5 s trying up to 8 rings (7.1 s up to 2).
 ACROSS_RINGS = 2
 
-#: A fold on a seam (rows shared with another shell) is first tried in its own shell within this many rings; larger
-#: regions of its own shell come after the twin layers' and the across-shell regions. On the damaged Duck, Suzanne,
-#: stacked cylinders, capsule, fuze, spot and milk truck (local folds and vertex noise, seeds 10-13), 33 of 96
-#: own-shell repairs of seam folds worked, 30 of them within 2 rings, and the 63 that failed took 62 s of the
-#: sweep's 105 s of local repairs, trying up to 12 rings.
+#: A fold on a seam (rows shared with another shell) tries its own shell within this many rings first; larger regions
+#: of it come after the twin layers and across shells. Damaged Duck, Suzanne, cylinders, capsule, fuze, spot, milk
+#: truck (local folds, noise, seeds 10-13): 30 of the 33 own-shell seam repairs that worked did so within 2 rings;
+#: the 63 that failed took 62 s of the sweep's 105 s of local repairs, trying up to 12 rings.
 SEAM_OWN_RINGS = 2
 
 #: Rings around a fold on a seam in which :func:`seam_signs` places the seam anew.
 SEAM_RINGS = 2
 
-__all__ = ["repair_shells", "repair_across_shells", "seam_signs", "intended_overlaps", "PairsWith", "twin_layers",
-           "repair_twin_layers", "layer_sign", "twin_layers_hold"]
+__all__ = ["repair_shells", "repair_across_shells", "seam_signs", "intended_overlaps", "PairsWith",
+           "repair_twin_layers"]
 
 
 def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural, only=None):
@@ -126,9 +123,8 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         sgn = np.array([-1.0, 1.0]) if flip else np.ones(2)  # work * sgn: the layout as it is
         work = UVw * sgn if flip else UVw
         dens = facts.density[i] if np.isfinite(facts.density[i]) else med
-        # the folds' own faces: the rows their damage moved beyond them are the region steps' damaged rows
-        # (repair_cluster); adding the shell's stretched faces near a fold (as the bake path does) changed faces of the
-        # artist's own stretch: on Duck.glb 286 faces for its 46 authored folds, 194 without
+        # the folds' own faces: the rows their damage moved beyond them are repair_cluster's damaged rows; adding the
+        # shell's stretched faces (as the bake path does) changed the artist's own stretch (Duck.glb: 286 faces, 194)
         targets = shell[bad[shell]]
         graph = IslandGraph(FUVw, shell, len(work), locked=locked)
         allowed = intended_overlaps(work, FUVw, shell, bad, graph)  # (it reads the faces' rows, not the locks)
@@ -268,7 +264,9 @@ def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale,
             if not bad[moved].all():  # faces the cut turned over are broken too: their overlaps are not intended
                 bad2 = bad.copy()
                 bad2[moved] = True
-                allowed = intended_overlaps(UV, FUV, inside, bad2, graph)
+                mv = set(moved.tolist())  # the island's pairs as read once, those of the faces it turned over anew
+                allowed = {p for p in allowed if p[0] not in mv and p[1] not in mv} | intended_overlaps(
+                    UV, FUV, inside, bad2, graph, subset=moved)
             out, info = repair_cluster(Vn, F, UV, FUV, graph, np.union1d(cluster, moved), scale,
                                        **{**kw, "allowed": allowed}, sign=sign2, group=group2,
                                        max_fraction=ACROSS_FRACTION, max_rings=ACROSS_RINGS)
@@ -412,14 +410,15 @@ class PairsWith:
         return bool(self.pairs) or bool(self.faces.any())
 
 
-def intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
+def intended_overlaps(UV, FUV, shell, bad, graph, rings=3, subset=None):
     """Pairs of the shell's faces that overlap on purpose: a repaired region may keep them.
 
     Two overlapping faces of which neither is broken overlap on purpose (a shell laid over itself); so do a
     broken face and a face more than ``rings`` rings away from it (the fold lies where the shell is stacked
-    on another part of itself). A broken face over its near neighbours is the fold itself.
+    on another part of itself). A broken face over its near neighbours is the fold itself. ``subset``: only
+    the pairs with a face in it.
     """
-    a, b = overlap_pairs(UV, FUV, shell)
+    a, b = overlap_pairs(UV, FUV, shell, subset)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     keep = ~bad[lo] & ~bad[hi]
     n = np.flatnonzero(~keep)
@@ -438,46 +437,6 @@ def intended_overlaps(UV, FUV, shell, bad, graph, rings=3):
             R.data[:] = 1.0
         keep[n] = np.asarray(R[inv.reshape(-1), pos[j]]).reshape(-1) == 0
     return set(zip(lo[keep].tolist(), hi[keep].tolist()))
-
-
-def twin_layers(F, FUV, faces):
-    """The layers of an island whose stacked halves share ``vt`` rows: its faces joined through edges shared in
-    3D *and* in UV, never a face to its twin (a face with the same three ``vt`` rows).
-
-    A mirror modifier's halves that share their rows are one island, and a fold on the shared rows folds both
-    halves at once: each half's folded faces then lie, by orientation, in the other half's sheet. A half is
-    still what the surface joins: its faces meet along 3D edges, and where the halves meet (the mirror plane)
-    the face across the edge is the twin.
-
-    Parameters
-    ----------
-    F, FUV : (m,3) int arrays
-    faces : (k,) int array, the island's faces
-
-    Returns
-    -------
-    layer : (k,) int array, the layer of each face of ``faces``
-    twin : (k,) int array, per face the index (into ``faces``) of a twin, -1 where none
-    """
-    faces = np.asarray(faces, np.int64)
-    k = len(faces)
-    T = np.sort(np.asarray(FUV)[faces], 1)
-    _, group = np.unique(T, axis=0, return_inverse=True)
-    group = group.reshape(-1)
-    twin = -np.ones(k, np.int64)
-    order = np.argsort(group, kind="stable")
-    pair = group[order[1:]] == group[order[:-1]]
-    twin[order[1:][pair]], twin[order[:-1][pair]] = order[:-1][pair], order[1:][pair]
-    e3, eu = undirected_edges(np.asarray(F)[faces])[1], undirected_edges(np.asarray(FUV)[faces])[1]
-    _, key = np.unique(np.c_[e3, eu], axis=0, return_inverse=True)
-    key = key.reshape(-1)
-    fid = np.tile(np.arange(k), 3)
-    order = np.argsort(key, kind="stable")
-    same = key[order[1:]] == key[order[:-1]]
-    a, b = fid[order[:-1][same]], fid[order[1:][same]]
-    keep = group[a] != group[b]
-    A = sp.coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])), shape=(k, k))
-    return connected_components(A, directed=False)[1], twin
 
 
 def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, allowed_cache=None, **kw):
@@ -552,7 +511,7 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
             res_uv, res_fuv, info = resolve_as_chart(Vn, F, work, FUV, fl, scale, kw["config"], seed=kw["seed"],
                                                      device=kw["device"], deadline=kw.get("deadline"))
             if (face_dets_of(Vn, F, res_uv, res_fuv, fl) > 0).all():
-                FUV = _twins_follow(FUV, res_fuv, island, mine, twin)
+                FUV = twins_follow(FUV, res_fuv, island, mine, twin)
                 out, done = res_uv * sign, done + 1
                 continue
         if res is None:
@@ -562,36 +521,3 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
         return None, info
     both = np.r_[at, twin[at][twin[at] >= 0]]
     return out, {**info, "step": info["step"] + " (twin layers)", "faces": np.unique(island[both]), "FUV": FUV}
-
-
-def _twins_follow(FUV_old, FUV_new, island, mine, twin):
-    """``FUV_new`` with every twin of a face of the layer (``mine``, over ``island``) on its face's new rows."""
-    FUV = FUV_new.copy()
-    for k in np.flatnonzero(~mine & (twin >= 0)):
-        t = twin[k]
-        if mine[t]:
-            new = dict(zip(FUV_old[island[t]].tolist(), FUV_new[island[t]].tolist()))
-            FUV[island[k]] = [new[r] for r in FUV_old[island[k]].tolist()]
-    return FUV
-
-
-def layer_sign(Vn, F, UV, FUV, faces):
-    """The orientation of a layer (or any face set): -1.0 when its reversed faces hold more of it
-    (:func:`~neuraluv.layout.facts.holds_more`), else 1.0."""
-    pos = face_dets_of(Vn, F, UV, FUV, faces) > 0
-    a2, a3 = np.abs(signed_areas_2d(UV, FUV[faces])), face_areas(Vn, F[faces])
-    return -1.0 if holds_more(a2[~pos].sum(), a2[pos].sum(), a3[~pos].sum(), a3[pos].sum()) else 1.0
-
-
-def twin_layers_hold(Vn, F, UV, FUV, island, cluster):
-    """Whether every face of ``cluster`` is oriented like its layer (:func:`twin_layers`): a fold a twin-layer
-    repair already undid (seen from the other half's shell, its faces are the repaired faces' twins)."""
-    island = np.sort(np.asarray(island, np.int64))
-    layer, _ = twin_layers(F, FUV, island)
-    at = np.searchsorted(island, cluster)
-    for lay in np.unique(layer[at]):
-        sign = np.array([layer_sign(Vn, F, UV, FUV, island[layer == lay]), 1.0])
-        if not (face_dets_of(Vn, F, UV * sign, FUV, cluster[layer[at] == lay]) > 0).all():
-            return False
-    return True
-
