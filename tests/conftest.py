@@ -21,6 +21,15 @@ def real_mesh(name):
     return datasets.load(name)
 
 
+def grid(nx=6, ny=2):
+    """A flat ``nx`` × ``ny`` quad grid split into triangles: ``V (n,3), F (m,3)``."""
+    x, y = np.meshgrid(np.arange(nx + 1.0), np.arange(ny + 1.0))
+    V = np.c_[x.ravel(), y.ravel(), 0 * x.ravel()]
+    w = nx + 1
+    q = np.array([[i + w * j, i + 1 + w * j, i + 1 + w * (j + 1), i + w * (j + 1)] for j in range(ny) for i in range(nx)])
+    return V, np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+
+
 @pytest.fixture
 def tri():
     V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])

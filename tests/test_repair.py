@@ -14,7 +14,7 @@ from neuraluv.repair.untangle import polish, untangle
 from neuraluv.tutte import tutte
 from neuraluv_paper import damage
 
-from conftest import two_islands
+from conftest import grid, two_islands
 
 
 def _flat_disk(n_rings=16):
@@ -150,11 +150,7 @@ def test_a_fold_on_a_regular_layout_changes_only_the_faces_the_damage_touched():
     # a grid mapped to itself: the rows the fold moved are the only ones whose every face is distorted, and
     # freeing exactly those (not the ring around them) leaves every face the damage did not touch bit-identical
     n = 12
-    x, y = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
-    V = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
-    q = np.array([[i + (n + 1) * j, i + 1 + (n + 1) * j, i + n + 2 + (n + 1) * j, i + n + 1 + (n + 1) * j]
-                  for j in range(n) for i in range(n)])
-    F = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
+    V, F = grid(n, n)
     UV = V[:, :2] / n
     for rings in (1, 2):
         bad, _ = damage.local_fold(V, F, UV, F, rings=rings, seed=0)
@@ -170,12 +166,8 @@ def test_a_fold_beside_a_band_the_artist_stretched_leaves_the_band_along_its_len
     # the squeezed band along its whole length (its faces read as "stretched neighbours" of the fold: at c73eee0's
     # rule, 112-115 faces the damage did not touch changed, from the bottom row to the top)
     n = 12
-    x, y = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
-    V = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
-    q = np.array([[i + (n + 1) * j, i + 1 + (n + 1) * j, i + n + 2 + (n + 1) * j, i + n + 1 + (n + 1) * j]
-                  for j in range(n) for i in range(n)])
-    F = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
-    UV = np.c_[np.interp(x.ravel(), [0, 5, 8, n], [0, 5, 5 + 3 / 8, 5 + 3 / 8 + n - 8]), y.ravel()] / n
+    V, F = grid(n, n)
+    UV = np.c_[np.interp(V[:, 0], [0, 5, 8, n], [0, 5, 5 + 3 / 8, 5 + 3 / 8 + n - 8]), V[:, 1]] / n
     cy = V[F, 1].mean(1)
     for seed in (1, 2, 3):
         bad, info = damage.local_fold(V, F, UV, F, rings=1, seed=seed, rows=np.array([4 + (n + 1) * 6]))
@@ -345,7 +337,7 @@ def test_an_overlap_below_the_texel_tolerance_is_noted_and_left_alone(tmp_path, 
     """Issue 31: minimal means minimal. Two islands touching by a sliver no texture shows (well below half a
     texel at 1024²): check notes it, repair leaves the file byte-identical, the read-back agrees; with
     --min-defect 0 the same sliver is a problem that repair fixes."""
-    from conftest import two_islands, write_layout
+    from conftest import grid, two_islands, write_layout
     from neuraluv.cli import main
     from neuraluv.layout.facts import layout_facts
 
