@@ -440,7 +440,8 @@ def intended_overlaps(UV, FUV, shell, bad, graph, rings=3, subset=None):
 
 
 def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, allowed_cache=None, **kw):
-    """Repair a fold of twin halves in their layers (:func:`twin_layers`), each in its own orientation.
+    """Repair a fold of twin halves in their layers (:func:`~neuraluv.repair.twins.twin_layers`), each in its own
+    orientation.
 
     In each layer the cluster's faces (or their twins) lie in, the faces reversed against the layer (the
     orientation holding more of it, :func:`~neuraluv.layout.facts.holds_more`) next to the cluster are
