@@ -123,3 +123,32 @@ def test_barrier_and_schedule():
     vals = [alpha_schedule(s, 10) for s in range(11)]
     ratios = np.array(vals[1:]) / np.array(vals[:-1])
     assert np.allclose(ratios, ratios[0])  # exponential
+
+
+@pytest.mark.parametrize("n_charts", [1, 3])
+def test_the_chart_objectives_written_out_gradient_is_autograds(n_charts):
+    """:func:`chart_objective`'s hand-written backward pass equals autograd through :func:`face_terms`,
+    flipped faces and determinants below ε_J included."""
+    from neuraluv.solver.energy import _fro2_det, chart_objective, face_terms, jacobian_entries
+
+    gen = torch.Generator().manual_seed(0)
+    N, M = 30, 50
+    UV = torch.randn(N, 2, generator=gen, dtype=torch.float64)
+    F = torch.randint(0, N, (M, 3), generator=gen)
+    K = torch.randn(M, 2, 2, generator=gen, dtype=torch.float64)
+    w = torch.rand(M, generator=gen, dtype=torch.float64)
+    fc = torch.randint(0, n_charts, (M,), generator=gen)
+    alpha = torch.linspace(1.0, 5.0, n_charts, dtype=torch.float64)
+    for eps_J, eps in [(EPS_J, 1e-3), (0.5, 0.8)]:
+        u1 = UV.clone().requires_grad_(True)
+        o = chart_objective(u1, F, K, w, fc, n_charts, alpha, eps_J, eps)
+        (o.loss * torch.arange(1, n_charts + 1)).sum().backward()
+        u2 = UV.clone().requires_grad_(True)
+        fro2, det = _fro2_det(*jacobian_entries(u2, F, K))
+        s, b, _ = face_terms(fro2, det, eps_J, eps)
+        z = torch.zeros(n_charts, dtype=torch.float64)
+        ref = z.index_add(0, fc, w * s) + alpha * z.index_add(0, fc, b)
+        (ref * torch.arange(1, n_charts + 1)).sum().backward()
+        assert torch.allclose(o.loss, ref.detach(), rtol=1e-12)
+        assert torch.allclose(u1.grad, u2.grad, rtol=1e-10, atol=1e-10 * float(u2.grad.abs().max()))
+        assert int((det <= 0).sum()) > 0 and o.flips.sum() == int((det <= 0).sum())

@@ -49,6 +49,40 @@ def test_compact_lbfgs_matches_the_two_loop_recursion():
         assert torch.allclose(Hg[b], _two_loop(g[b], ref_pairs, gamma), rtol=1e-9, atol=1e-9), (b, kept)
 
 
+def test_the_dots_a_push_reads_for_the_next_direction_are_those_apply_would_read():
+    """``push(..., g_next=g)`` reads ``[Sᵀg; Yᵀg]`` of the updated memory in its own pass over the pairs: the next
+    ``apply(g, after_push=True)`` gives ``H g`` as a fresh read does, for the charts that accepted."""
+    gen = torch.Generator().manual_seed(1)
+    B, P, m = 3, 30, 3
+    mem = LBFGSMemory(B, P, m, dtype=torch.float64, device="cpu")
+    for step in range(5):  # wraps the ring; chart 2 accepts every other round
+        s = torch.randn(B, P, generator=gen, dtype=torch.float64)
+        y = s + 0.3 * torch.randn(B, P, generator=gen, dtype=torch.float64)
+        g = torch.randn(B, P, generator=gen, dtype=torch.float64)
+        acc = torch.tensor([True, True, step % 2 == 0])
+        mem.push(s, y, acc, g_next=g)
+        fresh, cached = mem.apply(g), mem.apply(g, after_push=True)
+        assert torch.allclose(cached[acc], fresh[acc], rtol=1e-12, atol=1e-12), step
+    mem.select(torch.tensor([0, 2]))  # a compacted batch keeps its charts' dots
+    assert torch.allclose(mem.apply(g[[0, 2]], after_push=True)[0], mem.apply(g[[0, 2]])[0], rtol=1e-12, atol=1e-12)
+
+
+def test_concurrent_batches_give_the_results_of_one_batch_after_another():
+    """Batches run in threads (``workers``) do not depend on each other: the same maps, seeds and traces."""
+    charts = [datasets.spherical_cap(3), datasets.spherical_cap(4), datasets.glove(res=2), datasets.disk(6)]
+    cfg = get_config("fast", iterations=60, retries=0)
+    old = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        one = solve_charts(charts, cfg, device="cpu", workers=1, max_batch=1)
+        two = solve_charts(charts, cfg, device="cpu", workers=2, max_batch=1)
+    finally:
+        torch.set_num_threads(old)
+    assert torch.get_num_threads() == old
+    for a, b in zip(one, two):
+        assert np.array_equal(a.uv, b.uv) and a.trace["esd"] == b.trace["esd"] and a.stop == b.stop
+
+
 def test_flat_network_is_the_siren_module():
     V, F = datasets.spherical_cap(4)
     cfg = get_config("fast")
