@@ -102,9 +102,9 @@ def test_fallback_keeps_a_folding_chart_whole_with_tutte_slim():
     assert tutte_slim_uv(Vs, Fs, np.arange(len(Fs))) is None
 
 
-def test_route_chart_neural_on_a_disk():
-    V, F = disk(n_rings=4)
-    ch = route_chart(V, F, np.arange(len(F)), get_config("test", iterations=10, retries=0))
+def test_route_chart_neural_on_a_curved_disk():
+    V, F = spherical_cap(n_rings=4)   # a flat disk's start is an isometry already: routed exact (test below)
+    ch = route_chart(V, F, np.arange(len(F)), get_config("fast", iterations=60, retries=0))
     assert ch.route == "neural" and ch.method == "neural" and ch.reason == ""
     assert ch.metrics["flips"] == 0 and ch.solver["status"] == "neural"
 
@@ -232,14 +232,15 @@ def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
     from neuraluv.atlas import routing
 
     real = routing.boundary_is_simple
-    V, F = disk(n_rings=5)
+    V, F = spherical_cap(n_rings=5)   # curved: a flat disk's start is an isometry (routed exact)
     whole = len(F)
 
     def fails_whole(UV, Fl):  # pretend the neural map of the whole chart crosses itself
         return False if len(Fl) == whole else real(UV, Fl)
 
     monkeypatch.setattr(routing, "boundary_is_simple", fails_whole)
-    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], get_config("test", iterations=20))
+    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], get_config("test", iterations=20),
+                                  start_slim=0)   # the Tutte start: the tiny test network improves on it
     assert len(charts) >= 2 and all(c.route in ("neural", "exact") for c in charts)
     assert sorted(np.concatenate([c.faces for c in charts]).tolist()) == list(range(len(F)))
     assert all("split after: neural map overlaps itself" in c.source for c in charts)
@@ -251,7 +252,7 @@ def test_a_neural_map_whose_boundary_crosses_itself_is_solved_on_before_it_is_sp
     from neuraluv.solver import chart as solver_chart
 
     real, real_solve = routing.boundary_is_simple, solver_chart.solve_charts
-    V, F = disk(n_rings=5)
+    V, F = spherical_cap(n_rings=5)   # curved: a flat disk's start is an isometry (routed exact)
     whole, seen, starts = len(F), [], []
 
     def fails_once(UV, Fl):  # the first map of the whole chart crosses itself, the next ones do not
@@ -267,7 +268,8 @@ def test_a_neural_map_whose_boundary_crosses_itself_is_solved_on_before_it_is_sp
 
     monkeypatch.setattr(routing, "boundary_is_simple", fails_once)
     monkeypatch.setattr(solver_chart, "solve_charts", solve)
-    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], get_config("test", iterations=20))
+    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], get_config("test", iterations=20),
+                                  start_slim=0)
     assert [c.route for c in charts] == ["neural"] and "split after" not in charts[0].source
     assert len(starts) == 2 and starts[0] is None and starts[1] is not None and starts[1][0] is not None
 
@@ -322,7 +324,7 @@ def test_chart_with_a_hole_is_solved_whole_with_a_filler():
     from neuraluv.solver.config import get_config
     from neuraluv.topology import is_disk_like, submesh
 
-    V, F = disk(n_rings=5)
+    V, F = spherical_cap(n_rings=5)   # curved: a flat disk's start is an isometry (routed exact)
     ring = np.array([f for f in range(len(F)) if 0 not in F[f]])  # an annulus: the centre's fan removed
     vi, Fl = submesh(F, ring)
     assert not is_disk_like(V[vi], Fl)[0] and chart_is_disk(V, F, ring)[0]
@@ -357,3 +359,31 @@ def test_chart_touching_itself_at_a_vertex_is_split_there_not_cut():
     two = np.array([0, 1, 12, 13])
     vi, Fl, Vx, Fx = chart_mesh(V, F, two)
     assert len(Vx) == 0 and not chart_is_disk(V, F, two)[0]
+
+
+def test_a_flat_chart_whose_solver_start_is_an_isometry_is_routed_exact_with_it():
+    """The ``fast`` start (Tutte moved on by SLIM while injective) of a flat disk with interior vertices is an
+    isometry already: routed exact (``isometric-start``), never a stalled neural solve that gets split."""
+    from neuraluv.atlas.routing import ISOMETRIC_START, route_charts
+
+    V, F = disk(6)
+    V = V * np.array([6.0, 0.25, 0.0])   # flat, far from its Tutte circle
+    (c,) = route_charts(V, F, [(np.arange(len(F)), "component")])
+    assert (c.route, c.method, c.metrics["flips"]) == ("exact", "isometric-start", 0)
+    assert c.metrics["esd"] <= 4.0 * (1 + ISOMETRIC_START) and len(c.islands) == 1
+    Vc, Fc = spherical_cap(4)
+    (n,) = route_charts(Vc, Fc, [(np.arange(len(Fc)), "component")])
+    assert n.route == "neural"   # a curved chart still goes to the network
+
+
+def test_a_slim_start_the_network_cannot_improve_is_a_marked_fallback_kept_whole():
+    """A network that finds nothing better than its SLIM-moved start (here: every step far too long, refused) returns
+    the start, an injective map: routed as a marked fallback in one island, not split into more seams."""
+    from neuraluv.atlas.routing import route_charts
+
+    V, F = spherical_cap(n_rings=5)
+    cfg = get_config("test", iterations=5, retries=0, lr=1e6, max_backtracks=0)
+    (c,) = route_charts(V, F, [(np.arange(len(F)), "component")], cfg, start_slim=10)
+    assert (c.route, c.method, len(c.islands)) == ("fallback", "slim-start", 1)
+    assert "at its start (tutte+slim" in c.reason and c.metrics["flips"] == 0
+    assert boundary_is_simple(c.islands[0][3], c.islands[0][2])

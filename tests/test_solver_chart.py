@@ -296,6 +296,23 @@ def test_prepare_chart_computes_the_start_as_before():
     assert tutte(prep.Vn, F, frames=(prep.dC_inv, prep.A)).tobytes() == plain.tobytes()
 
 
+def test_start_slim_moves_the_start_towards_the_flattening_while_it_stays_injective():
+    """``start_slim``: SLIM iterations after the Tutte map, each kept only while no face flips and the outer
+    boundary does not cross itself; a strip far from its Tutte circle starts near its flattening."""
+    from neuraluv.layout.overlap import boundary_is_simple
+
+    V, F = datasets.spherical_cap(4)
+    strip = V * np.array([6.0, 0.25, 1.0])   # a long thin curved strip: its Tutte circle distorts it badly
+    plain = prepare_chart(strip, F, get_config("test"))
+    moved = prepare_chart(strip, F, get_config("test", start_slim=10))
+    assert plain.start == "tutte" and moved.start.startswith("tutte+slim")
+    k = int(moved.start.removeprefix("tutte+slim"))
+    assert 1 <= k <= 10 and moved.start_metrics["flips"] == 0 and boundary_is_simple(moved.u_start, F)
+    assert moved.start_metrics["esd"] < 0.5 * plain.start_metrics["esd"]
+    res = solve_charts(None, get_config("test", start_slim=10), preps=[moved], device="cpu")[0]
+    assert res.status == "neural" and res.start == moved.start and res.metrics["esd"] <= moved.start_metrics["esd"]
+
+
 def test_prepare_chart_with_a_given_start_pinned_rows_and_a_lower_rank():
     """What local repair asks of prepare_chart: its start as given, a free mask, padded features."""
     from neuraluv.metrics import distortion_metrics

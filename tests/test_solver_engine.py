@@ -142,6 +142,7 @@ def test_fast_preset_is_the_papers_recipe_with_a_smaller_network_and_lbfgs():
     same = ("k", "init", "residual", "eps_J", "eps", "alpha_start", "alpha_end", "reject", "det_drop", "start_relax",
             "relax_below", "retries")
     assert all(getattr(f, a) == getattr(p, a) for a in same)
+    assert f.start_slim == p.start_slim == get_config("literal").start_slim == 0   # the atlas's routing sets it
 
 
 def test_every_chart_of_a_batch_reports_why_it_stopped():

@@ -14,7 +14,7 @@ import numpy as np
 from neuraluv import __version__
 from neuraluv.atlas.candidates import chart_candidates, congruent_components, merge_small_charts
 from neuraluv.atlas.prepare import prepare_mesh
-from neuraluv.atlas.routing import ROUTES, route_charts
+from neuraluv.atlas.routing import ROUTES, START_SLIM, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import check_mesh_arrays, jsonable
 from neuraluv.layout.facts import island_densities, layout_facts
@@ -260,7 +260,8 @@ def build_atlas(V, F, preset="fast", *, resolution=1024, padding=4.0, packer="ti
         "repaired_vertices": int(len(Vr)), "repaired_faces": int(len(Fr)),
         "repair": rinfo, "topology": topo.as_dict(),
         "preset": preset if isinstance(preset, str) else "custom",
-        "solver": {"iterations": cfg.iterations, "retries": cfg.retries, "optimizer": cfg.optimizer, "width": cfg.width},
+        "solver": {"iterations": cfg.iterations, "retries": cfg.retries, "optimizer": cfg.optimizer, "width": cfg.width,
+                   "start_slim": START_SLIM},
         "max_cost": max_cost, "time_budget": time_budget,
         "candidates": {"xatlas_and_splits": n_cand, "after_merge": len(cands), "merge": bool(merge),
                        "merge_faces": merge_faces, "merge_curvature": merge_curvature},

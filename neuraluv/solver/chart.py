@@ -25,9 +25,10 @@ from tqdm.auto import tqdm
 
 from neuraluv.errors import TopologyError
 from neuraluv.jacobian import jacobians, local_frames
+from neuraluv.layout.overlap import boundary_is_simple
 from neuraluv.meshfix import normalize_unit_box
 from neuraluv.metrics import distortion_metrics, metrics_from_jacobians
-from neuraluv.relax import slim_relax_until
+from neuraluv.relax import slim_relax_until, slim_relax_while
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
 from neuraluv.solver.engine import make_batch, optimise
@@ -56,8 +57,9 @@ class PreparedChart:
     X : (n, 3+k) float32 array, the SIREN input ``[p̃ ‖ ψ̃_1..k]``.
     eig : (evals (k',), phi (n,k')), the LBO eigenpairs of ``Vn`` (k' ≥ k).
     u_start : (n,2) float array, the valid start on ``Vn`` (the residual base).
-    start : ``"tutte"``, ``"tutte+slimN"`` (un-crushed, see ``start_relax``), or the
-        ``start_name`` of a start given to :func:`prepare_chart`.
+    start : ``"tutte"``, ``"tutte+slimN"`` (N SLIM iterations: un-crushed, see ``start_relax``, and
+        moved on while injective, see ``start_slim``), or the ``start_name`` of a start given to
+        :func:`prepare_chart`.
     start_metrics : :func:`~neuraluv.metrics.distortion_metrics` of ``u_start`` on ``Vn``.
     dC_inv : (m,2,2) float array, A : (m,) float array: local frames and areas of ``Vn``.
     target : (n,2) float array or None, the map the warm-up fits in absolute mode.
@@ -143,7 +145,9 @@ def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, k=None, start_
     the chart's area. When ``start_relax > 0`` and its smallest det J is below
     ``relax_below``, it is un-crushed by flip-free SLIM iterations until every
     det J ≥ ``eps`` (:func:`neuraluv.relax.slim_relax_until`; not in the paper,
-    see :class:`~neuraluv.solver.config.SolverConfig`).
+    see :class:`~neuraluv.solver.config.SolverConfig`). With ``start_slim > 0`` (the atlas's
+    routing; not in the paper) up to that many more SLIM iterations follow, kept while the map
+    stays injective (no flip, a simple outer boundary).
 
     Examples
     --------
@@ -198,19 +202,28 @@ def _metrics(u, F, frames):
 
 
 def _tutte_start(cfg, Vn, F, frames):
-    """Algorithm 1, line 3: the Tutte map of ``Vn``, un-crushed by SLIM when ``cfg.start_relax`` applies.
+    """Algorithm 1, line 3: the Tutte map of ``Vn``, un-crushed by SLIM when ``cfg.start_relax`` applies, then
+    moved on by SLIM while injective when ``cfg.start_slim`` asks.
 
     Returns ``(u (n,2), name, metrics)`` (see :func:`prepare_chart`).
     """
     u0 = tutte(Vn, F, frames=frames)
     m0 = _metrics(u0, F, frames)
+    n_slim = 0
     if cfg.start_relax > 0 and m0["valid"] and m0["min_det"] < cfg.relax_below:
         relaxed, n_relax = slim_relax_until(Vn, F, u0, cfg.eps, cfg.start_relax, frames=frames)
         if n_relax > 0:
             mr = _metrics(relaxed, F, frames)
             if mr["valid"]:
-                return relaxed, f"tutte+slim{n_relax}", mr
-    return u0, "tutte", m0
+                u0, m0, n_slim = relaxed, mr, n_relax
+    if cfg.start_slim > 0 and m0["valid"] and boundary_is_simple(u0, F):
+        def injective(uv):  # no flip and a simple outer boundary: injective on a disk
+            return _metrics(uv, F, frames)["valid"] and boundary_is_simple(uv, F)
+
+        moved, k = slim_relax_while(Vn, F, u0, injective, cfg.start_slim)
+        if k > 0:
+            u0, m0, n_slim = moved, _metrics(moved, F, frames), n_slim + k
+    return u0, (f"tutte+slim{n_slim}" if n_slim else "tutte"), m0
 
 
 def build_network(prep, config="fast", *, seed=0, device="cpu"):

@@ -58,7 +58,7 @@ class ChartResult:
     stop : why the returned attempt stopped: the :attr:`Stop.label` of a :class:`Stop`
         (``"budget"``, ``"early_stop"``, ``"stalled"``, ``"time"``; ``Stop.from_label`` reads it back).
     start : the valid start the residual network was attached to (``"tutte"``,
-        or ``"tutte+slimN"`` when ``start_relax`` applied).
+        or ``"tutte+slimN"`` after N SLIM iterations: ``start_relax``, ``start_slim``).
     attempt_metrics : metrics of every neural attempt, in order (ablations read
         the invalid ones here even when a fallback map is returned).
     neural_uv : (n,2) float array, the best neural attempt (equals ``uv`` for
