@@ -7,8 +7,9 @@ A whole, possibly messy, input mesh becomes a packed UV atlas:
                    split non-manifold edges and vertices
 ``candidates``     2. chart candidates: components, xatlas seams, bisection
                    until every candidate is disk-like
-``routing``        3. each candidate → an exact unfold (no interior vertex), the
-                   neural solver (all charts in batches), or a marked fallback
+``routing``        3. each candidate → an exact unfold (no interior vertex) or
+                   isometric start (flat), the neural solver (all charts in
+                   batches, each from its Tutte map moved on by SLIM), or a marked fallback
                    (PCA → Tutte + SLIM → split → per-face), with its reason
 ``build``          4. packing (:mod:`neuraluv.layout.pack`) and the
                    :class:`AtlasResult`; :func:`build_atlas` runs 1–4 and

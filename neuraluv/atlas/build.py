@@ -42,7 +42,7 @@ class AtlasResult:
     FUV : (m,3) int array, per-corner indices into ``UV``.
     charts : list of AtlasChart.
     face_chart : (m,) int array, chart of each face.
-    face_route : (m,) int array, the route of each face: 1 neural, 2 exact unfold, 0 marked fallback
+    face_route : (m,) int array, the route of each face: 1 neural, 2 exact (unfold, isometric start), 0 marked fallback
         (:data:`~neuraluv.atlas.routing.ROUTES`).
     validation : dict from :func:`~neuraluv.layout.validate_facts` (in memory).
     info : dict, input counts, repair, packing, timings.

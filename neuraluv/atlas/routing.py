@@ -60,8 +60,8 @@ FALLBACK_MAX_ESD = 8.0
 #: cow, spot and fertility this resolved 2 of the 3 such charts in under 1 s in all.
 CONTINUE_STEPS = 200
 
-__all__ = ["AtlasChart", "CONTINUE_STEPS", "ROUTES", "pca_uv", "per_face_uv", "unfold_tree", "tutte_slim_uv", "ISOMETRIC_START", "START_SLIM",
-           "fallback_islands", "route_charts", "route_chart"]
+__all__ = ["AtlasChart", "CONTINUE_STEPS", "ISOMETRIC_START", "ROUTES", "START_SLIM", "pca_uv", "per_face_uv",
+           "unfold_tree", "tutte_slim_uv", "fallback_islands", "route_charts", "route_chart"]
 
 
 def pca_uv(V, F):

@@ -49,7 +49,7 @@ def plot_routes(V, F=None, UV=None, FUV=None, face_route=None, *, islands=None, 
     UV : (p,2) float array
     FUV : (m,3) int array
     face_route : (m,) int array
-        1 neural, 2 exact unfold, 0 marked fallback.
+        1 neural, 2 exact (unfold, isometric start), 0 marked fallback.
     islands, flips : int, optional
         Counts printed in the atlas panel's title (default: the result's totals).
     zoom : bool

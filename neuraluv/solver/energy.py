@@ -297,7 +297,8 @@ def chart_objective(UV, F, dC_inv, w, face_chart, n_charts, alpha, eps_J=1e-4, e
             min_det = det.min()[None]
         else:
             esd = torch.zeros_like(stable).index_add(0, face_chart, w * true_f)
-            flips = torch.zeros(n_charts, dtype=torch.long, device=det.device).index_add(0, face_chart, (det <= 0).long())
+            flips = torch.zeros(n_charts, dtype=torch.long, device=det.device).index_add(0, face_chart,
+                                                                                           (det <= 0).long())
             min_det = torch.full_like(stable, float("inf")).scatter_reduce(0, face_chart, det, "amin")
     return ChartObjective(stable + alpha * bar, stable, bar, esd, flips, min_det)
 
@@ -355,5 +356,6 @@ class _ChartTerms(torch.autograd.Function):
         e1 = torch.stack([ga * k00 + gb_ * k01, gc * k00 + gd * k01], 1)   # ∂/∂(P1 - P0)
         e2 = torch.stack([ga * k10 + gb_ * k11, gc * k10 + gd * k11], 1)   # ∂/∂(P2 - P0)
         corners = torch.stack([-e1 - e2, e1, e2], 1).reshape(-1, 2)
-        gUV = torch.zeros(ctx.n_rows, 2, dtype=corners.dtype, device=corners.device).index_add_(0, F.reshape(-1), corners)
+        gUV = torch.zeros(ctx.n_rows, 2, dtype=corners.dtype, device=corners.device)
+        gUV.index_add_(0, F.reshape(-1), corners)
         return gUV, None, None, None, None, None, None, None

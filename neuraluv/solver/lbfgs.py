@@ -119,7 +119,7 @@ class LBFGSMemory:
         self._ab = None    # [Sᵀg; Yᵀg] read by the last push, for its g_next
 
     def push(self, s, y, acc, g_next=None):
-        """Store the pair ``(s, y)`` (``(B, P)`` each) of the charts in ``acc (B,)`` whose curvature ``s·y`` is positive.
+        """Store the pair ``(s, y)`` (``(B, P)`` each) of the charts in ``acc (B,)`` with a positive curvature ``s·y``.
 
         With ``g_next (B, P)``, the gradient at the charts' new point, the same pass over
         the stored pairs also reads ``[Sᵀg; Yᵀg]`` of the updated memory for the next

@@ -5,7 +5,7 @@ Three reports in ``--output`` (default ``results/generated``):
 * ``amara_coverage_validity.{md,csv}`` (``tab:amara_coverage_validity``): our
   atlas (:func:`~neuraluv.atlas.build_atlas`, default packer, the solver preset of
   ``--preset``, default ``fast``) — coverage of the repaired faces, the neural /
-  exact-unfold / fallback face shares, neural charts with zero flips, flips and
+  exact (unfold or isometric start) / fallback face shares, neural charts with zero flips, flips and
   overlaps of the packed atlas — beside Blender's Smart UV Project on the same raw
   meshes (coverage and flipped loop-UV triangles);
 * ``amara_blender_methods.{md,csv}`` (``tab:amara_blender_methods``, "chart-level"):
@@ -262,7 +262,8 @@ def bench(n_assets=25, meshes=None, *, preset=None, quick=False, output="results
          f"{faces:,} repaired faces, {flips} flips, {overlaps} overlapping island pairs"),
         ("every accepted neural chart is zero-flip", n_neural_ok == n_neural, f"{fraction(n_neural_ok, n_neural)}"),
         ("about half of the repaired faces are neural-routed (paper 52.1% / 47.9% fallback)", None,
-         f"ours {100 * share['neural_share']:.1f}% neural, {100 * share['exact_share']:.1f}% exact unfold, "
+         f"ours {100 * share['neural_share']:.1f}% neural, "
+         f"{100 * share['exact_share']:.1f}% exact (unfold, isometric start), "
          f"{100 * share['fallback_share']:.1f}% fallback — different assets (seeded generated-like shapes, not "
          "Amara Spatial), so the split is not comparable"),
     ]
