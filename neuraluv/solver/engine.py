@@ -397,22 +397,19 @@ class _Run:
         """The chart's L-BFGS direction times its step; a chart not in a line search gets a new direction (step 1)."""
         st, cfg, mem = self.st, self.cfg, self.mem
         fresh = st.active & ~st.in_ls
-        if not bool(fresh.any()):   # every running chart is in a line search: the same directions, shorter steps
-            theta = torch.where(st.active[:, None], st.theta + st.scale.to(st.theta.dtype)[:, None] * st.dirn, st.theta)
-            return _Trial(theta, st.scale)
-        gnorm = st.g.norm(dim=1).clamp_min(1e-30).to(torch.float64)
-        sd = -st.g * (cfg.lr * st.scale0 / gnorm).to(st.g.dtype)[:, None]     # scaled steepest descent
-        # a fresh chart accepted its last step (or has not stepped yet): the last push read its dots
-        dnew = torch.where((mem.gamma > 0)[:, None], -mem.apply(st.g, after_push=True), sd)
-        gdn = row_dot(st.g, dnew)
-        bad = (gdn >= 0) & fresh
-        if bool(bad.any()):  # not a descent direction: forget this chart's curvature pairs
-            mem.reset(bad)
-            dnew = torch.where(bad[:, None], sd, dnew)
-            gdn = torch.where(bad, row_dot(st.g, sd), gdn)
-        st.dirn = torch.where(fresh[:, None], dnew, st.dirn)
-        st.gd = torch.where(fresh, gdn, st.gd)
-        st.scale = torch.where(fresh, torch.ones_like(st.scale), st.scale)
+        if bool(fresh.any()):  # a chart that accepted its last step (the last push read its dots), or none yet
+            gnorm = st.g.norm(dim=1).clamp_min(1e-30).to(torch.float64)
+            sd = -st.g * (cfg.lr * st.scale0 / gnorm).to(st.g.dtype)[:, None]     # scaled steepest descent
+            dnew = torch.where((mem.gamma > 0)[:, None], -mem.apply(st.g, after_push=True), sd)
+            gdn = row_dot(st.g, dnew)
+            bad = (gdn >= 0) & fresh
+            if bool(bad.any()):  # not a descent direction: forget this chart's curvature pairs
+                mem.reset(bad)
+                dnew = torch.where(bad[:, None], sd, dnew)
+                gdn = torch.where(bad, row_dot(st.g, sd), gdn)
+            st.dirn = torch.where(fresh[:, None], dnew, st.dirn)
+            st.gd = torch.where(fresh, gdn, st.gd)
+            st.scale = torch.where(fresh, torch.ones_like(st.scale), st.scale)
         theta = torch.where(st.active[:, None], st.theta + st.scale.to(st.theta.dtype)[:, None] * st.dirn, st.theta)
         return _Trial(theta, st.scale)
 
