@@ -475,9 +475,10 @@ def _isometric(prep):
 
 
 def _kept_start(res, prep):
-    """A solver fallback that returned its valid SLIM-moved start (``start_slim``: injective by construction)."""
+    """A solver fallback that returned its SLIM-moved start, valid with a simple outer boundary (injective)."""
     return (res.status == "fallback" and prep.start.startswith("tutte+slim") and res.metrics["valid"]
-            and res.uv is not None and np.array_equal(res.uv, prep.u_start * prep.scale))
+            and res.uv is not None and np.array_equal(res.uv, prep.u_start * prep.scale)
+            and boundary_is_simple(prep.u_start, prep.F))
 
 
 def _simple(res, mesh):
