@@ -430,7 +430,7 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
     else:
         for k in idx:
             why[k] = why.get(k, "") + "time budget exhausted before the neural solve"
-    for k, res, ok in zip(idx, results, simple):
+    for k, prep, res, ok in zip(idx, preps, results, simple):
         fidx, src, _ = todo[k]
         vi, Fl, Vx, Fx = meshes[k]
         solver = res.summary()
@@ -442,7 +442,7 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
         if ok:
             out[k] = _finish(AtlasChart(fidx, "neural", "neural", "", src, [(fidx, vi, Fl, uv)], solver=solver), V, t0)
             continue
-        if _kept_start(res, preps[idx.index(k)]):
+        if _kept_start(res, prep):
             # the network found nothing better than its SLIM-moved start, an injective map near the optimum:
             # a marked fallback, kept whole (splitting it would only add seams)
             out[k] = _finish(AtlasChart(fidx, "fallback", "slim-start", f"neural: {res.reason}", src,

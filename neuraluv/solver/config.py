@@ -89,8 +89,8 @@ class SolverConfig:
         the chart's flattening for as long as it stays injective — no flipped face and an
         outer boundary that does not cross itself — before the residual network is
         attached. The solve then starts near the optimum instead of from the circle's
-        distortion: strips of 10–30 faces (chair_model's charts) start at E_SD 150–450 on
-        their Tutte circle and took the ``fast`` solver 380–655 steps, most of them travelling.
+        distortion: strips of 10–31 faces (chair_model's charts) start at E_SD 146–453 on
+        their Tutte circle and took the ``fast`` solver 382–655 steps, most of them travelling.
         On a large chart whose flattening overlaps itself (Camel) the boundary crosses after
         one or two iterations, and the start is nearly the Tutte map; on a chart with
         protrusions (the procedural glove) the solve can stop earlier and higher (E_SD

@@ -125,7 +125,8 @@ def _fro2_det(a, b, c, d):
 def face_terms(fro2, det, eps_J, eps):
     """Per face: the stable energy ``‖J‖²(1 + q(det))``, the barrier ``[ε − det]₊²``, the true energy.
 
-    The one place the paper's per-face formulas are written (torch).
+    The one place the paper's per-face formulas are written (torch); the solver's per-chart
+    sums with their slope ``q'`` for the written-out gradient are :class:`_ChartTerms`.
 
     Parameters
     ----------
@@ -291,15 +292,10 @@ def chart_objective(UV, F, dC_inv, w, face_chart, n_charts, alpha, eps_J=1e-4, e
     """
     stable, bar, det, true_f = _ChartTerms.apply(UV, F, dC_inv, w, face_chart, n_charts, eps_J, eps)
     with torch.no_grad():
-        if n_charts == 1:
-            esd = (w * true_f).sum()[None]
-            flips = (det <= 0).sum()[None]
-            min_det = det.min()[None]
-        else:
-            esd = torch.zeros_like(stable).index_add(0, face_chart, w * true_f)
-            flips = torch.zeros(n_charts, dtype=torch.long, device=det.device).index_add(0, face_chart,
-                                                                                           (det <= 0).long())
-            min_det = torch.full_like(stable, float("inf")).scatter_reduce(0, face_chart, det, "amin")
+        esd = _per_chart(w * true_f, face_chart, n_charts)
+        flips = _per_chart((det <= 0).long(), face_chart, n_charts)
+        min_det = (det.min()[None] if n_charts == 1 else
+                   torch.full_like(stable, float("inf")).scatter_reduce(0, face_chart, det, "amin"))
     return ChartObjective(stable + alpha * bar, stable, bar, esd, flips, min_det)
 
 
@@ -328,11 +324,10 @@ class _ChartTerms(torch.autograd.Function):
     def forward(ctx, UV, F, dC_inv, w, face_chart, n_charts, eps_J, eps):
         a, b, c, d = jacobian_entries(UV, F, dC_inv)
         fro2, det = _fro2_det(a, b, c, d)
-        big = det > eps_J
-        safe = torch.where(big, det, torch.full_like(det, eps_J))
-        t = det - eps_J
-        q = torch.where(big, safe**-2, eps_J**-2 - 2.0 * t * eps_J**-3 + 3.0 * t * t * eps_J**-4)
-        dq = torch.where(big, -2.0 * safe**-3, -2.0 * eps_J**-3 + 6.0 * t * eps_J**-4)
+        q = inv_det_sq(det, eps_J)
+        big = det > eps_J   # q's slope, above ε_J and on its C² extension below
+        dq = torch.where(big, -2.0 * torch.where(big, det, torch.full_like(det, eps_J))**-3,
+                         -2.0 * eps_J**-3 + 6.0 * (det - eps_J) * eps_J**-4)
         hinge = torch.clamp(eps - det, min=0.0)
         stable = _per_chart(w * fro2 * (1.0 + q), face_chart, n_charts)
         bar = _per_chart(hinge * hinge, face_chart, n_charts)
