@@ -273,9 +273,9 @@ def _wait_until_busy(proc, cpu_seconds, limit=60.0):
         time.sleep(0.1)
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
-def test_signals_stop_quickly_and_leave_no_output(tmp_path, sig, code):
+def _signal_unwrap(tmp_path, sig, cpu_seconds):
+    """Start ``neuraluv unwrap`` on the glove (paper preset, no time budget), send ``sig`` once it has used
+    ``cpu_seconds`` of CPU; return (seconds from the signal to its exit, return code, stderr, output path)."""
     V, F = datasets.glove()
     p = tmp_path / "glove.obj"
     write_obj(p, V, F, np.zeros((len(V), 2)))
@@ -285,18 +285,40 @@ def test_signals_stop_quickly_and_leave_no_output(tmp_path, sig, code):
     proc = subprocess.Popen([sys.executable, "-m", "neuraluv", "unwrap", str(p), "-o", str(out), "--quiet",
                              "--preset", "paper", "--time-budget", "0"], stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    _wait_until_busy(proc, cpu_seconds=3.0)  # torch imported, solving (CPU time, not wall time: CI may be loaded)
+    _wait_until_busy(proc, cpu_seconds=cpu_seconds)
     t = time.perf_counter()
     proc.send_signal(sig)
     try:
-        _, err = proc.communicate(timeout=10)
+        _, err = proc.communicate(timeout=20)
     except subprocess.TimeoutExpired:
         proc.kill()
-        pytest.fail("the process did not stop within 10 s of the signal")
-    assert time.perf_counter() - t < 3, "stopped, but not within a second or two"
-    assert proc.returncode == code, err
-    assert len([ln for ln in err.splitlines() if ln.strip()]) == 1
+        pytest.fail("the process did not stop within 20 s of the signal")
+    return time.perf_counter() - t, proc.returncode, err, out
+
+
+def _stopped_cleanly(tmp_path, code, err, out, expected):
+    assert code == expected, err
+    assert len([ln for ln in err.splitlines() if ln.strip()]) == 1, err
     assert not out.exists() and not list(tmp_path.glob(".o.obj*"))  # no output, no temporary file left
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_signals_stop_quickly_and_leave_no_output(tmp_path, sig, code):
+    # 8 s of CPU: past the imports (about 3 s), solving on two threads
+    dt, rc, err, out = _signal_unwrap(tmp_path, sig, cpu_seconds=8.0)
+    assert dt < 3, "stopped, but not within a second or two"
+    _stopped_cleanly(tmp_path, rc, err, out, code)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig,code,cpu", [(signal.SIGINT, 130, 0.4), (signal.SIGINT, 130, 1.0),
+                                          (signal.SIGINT, 130, 2.0), (signal.SIGTERM, 143, 1.0)])
+def test_signals_during_startup_still_stop_cleanly(tmp_path, sig, code, cpu):
+    # while trimesh, libigl and torch are imported: trimesh swallowed a Ctrl-C there (the run went on and exited 0),
+    # libigl garbled it (`ImportError: std::bad_cast`), or the process died of the signal after its message
+    _, rc, err, out = _signal_unwrap(tmp_path, sig, cpu_seconds=cpu)
+    _stopped_cleanly(tmp_path, rc, err, out, code)
 
 
 # ---------------------------------------------------------------- garbage and degenerate inputs

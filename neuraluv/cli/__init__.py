@@ -52,8 +52,36 @@ class _Terminated(KeyboardInterrupt):
     """SIGTERM, turned into an exception so outputs in progress are discarded like on Ctrl-C."""
 
 
-def _on_sigterm(signum, frame):
-    raise _Terminated()
+def _importing_other_package(frame):
+    """The name of the module from another package that ``frame`` runs inside the import of, else None."""
+    while frame is not None:
+        if frame.f_code.co_name == "_find_and_load" and frame.f_code.co_filename.startswith("<frozen importlib"):
+            name = frame.f_locals.get("name")
+            if isinstance(name, str) and name.split(".")[0] != "neuraluv":
+                return name
+        frame = frame.f_back
+    return None
+
+
+def _on_signal(signum, frame):
+    """Ctrl-C (SIGINT) or SIGTERM as an exception, but never inside another package's import.
+
+    Imports swallow the exception (trimesh imports its optional dependencies under ``except BaseException``, so the
+    run goes on and exits 0) or garble it (libigl's ``ImportError: std::bad_cast``; a process dying of the signal
+    after the message). Inside another package's import the signal is sent again 50 ms later, until it lands in our
+    own code; a Ctrl-C during torch's import waits for that import to finish.
+    """
+    import signal
+
+    if _importing_other_package(frame):
+        import os
+        import threading
+
+        again = threading.Timer(0.05, os.kill, (os.getpid(), signum))
+        again.daemon = True
+        again.start()
+        return
+    raise KeyboardInterrupt() if signum == signal.SIGINT else _Terminated()
 
 
 def main(argv=None):
@@ -68,9 +96,11 @@ def main(argv=None):
         return exc.code if isinstance(exc.code, int) else EXIT_USER
     from neuraluv.errors import NeuralUVError, missing_extra
 
-    previous = None
+    previous = {}
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_signal)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not where Ctrl-C is ignored (`cmd &`)
+            previous[signal.SIGINT] = signal.signal(signal.SIGINT, _on_signal)
     try:
         return args.func(args)
     except NeuralUVError as exc:
@@ -96,8 +126,8 @@ def main(argv=None):
         print(f"neuraluv: internal error: {type(exc).__name__}: {msg} (please report this)", file=sys.stderr)
         return EXIT_INTERNAL
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":
