@@ -12,7 +12,7 @@ from neuraluv.layout.rigid import rigid_fit
 from neuraluv.meshfix import normalize_unit_box
 from neuraluv.metrics import distortion_metrics
 from neuraluv.topology import (bisect_faces, boundary_loop, boundary_loops, components, face_components, is_disk_like,
-                               nonmanifold_vertices, submesh)
+                               submesh, topology_scan)
 
 __all__ = ["seam_charts", "split_into_disks", "chart_candidates", "merge_small_charts",
            "congruent_components", "chart_mesh"]
@@ -139,13 +139,21 @@ def chart_mesh(V, F, fidx):
     >>> len(Vx), len(Fx) > 0, is_disk_like(np.vstack([Vd[vi], Vx]), np.vstack([Fl, Fx]))[0]
     (1, True, True)
     """
+    return _chart_mesh(V, F, fidx)[:4]
+
+
+def _chart_mesh(V, F, fidx):
+    """:func:`chart_mesh`, and the topology scan of the result when no filler was added (else None): one scan of a
+    chart that needs neither a split nor a filler, where the disk test would otherwise scan it again."""
     V = np.asarray(V, float)
     vi, Fl = submesh(F, np.asarray(fidx, np.int64))
-    if len(nonmanifold_vertices(len(vi), Fl)):
+    scan = topology_scan(V[vi], Fl)
+    if scan.nonmanifold_vertices:
         _, SF, SVI = igl.split_nonmanifold(V[vi], Fl)
         vi, Fl = vi[np.asarray(SVI, np.int64)], np.asarray(SF, np.int64)
-    loops = boundary_loops(Fl)
+        scan = topology_scan(V[vi], Fl)
     Vx, Fx = np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    loops = boundary_loops(Fl) if scan.boundary_loops > 1 else []
     if len(loops) > 1 and face_components(Fl)[0] == 1:  # loops of one piece: its outline and its holes
         P = V[vi]
         length = [float(np.linalg.norm(P[L] - P[np.roll(L, -1)], axis=1).sum()) for L in loops]
@@ -162,8 +170,8 @@ def chart_mesh(V, F, fidx):
                 fs += [[b, a, c] for a, b in zip(L, nxt)]
             else:
                 fs += [[a, b, c] for a, b in zip(L, nxt)]
-        Vx, Fx = np.array(xs, float), np.array(fs, np.int64)
-    return vi, Fl, Vx, Fx
+        Vx, Fx, scan = np.array(xs, float), np.array(fs, np.int64), None
+    return vi, Fl, Vx, Fx, scan
 
 
 def filled_chart(V, F, fidx):
@@ -174,7 +182,10 @@ def filled_chart(V, F, fidx):
 
 def chart_is_disk(V, F, fidx):
     """``(ok, why)`` of :func:`~neuraluv.topology.is_disk_like` on the chart's :func:`chart_mesh`."""
-    return is_disk_like(*filled_chart(V, F, fidx))
+    vi, Fl, Vx, Fx, scan = _chart_mesh(V, F, fidx)
+    if scan is not None:
+        return is_disk_like(None, Fl, report=scan)
+    return is_disk_like(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))
 
 
 def _make_disks(V, F, fidx, note, out, depth=0):

@@ -276,12 +276,12 @@ def cmd_repair(args):
             raise NeuralUVError(f"the repaired file could not be read back ({exc}); nothing written") from None
         back = validate_layout(V2, F2, UV2, FUV2, check_padding=add, padding=args.padding, resolution=args.resolution,
                                purpose=purpose, min_defect=args.min_defect)
-        rep = res.report()
-        rep["purpose"] = {"purpose": purpose, "reason": why}
-        rep["written"] = written
-        rep["textures"] = textures
-        rep["readback"] = back
-        if args.report:
+        if args.report:  # the per-island report of a large asset takes a second to build: only when asked for
+            rep = res.report()
+            rep["purpose"] = {"purpose": purpose, "reason": why}
+            rep["written"] = written
+            rep["textures"] = textures
+            rep["readback"] = back
             write_json(stage(args.report), rep)
         if args.figure:
             import matplotlib

@@ -21,6 +21,7 @@ from neuraluv.layout.facts import defect_area, face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import check_purpose, layout_intent
 from neuraluv.layout.validate import validate_facts
+from neuraluv.topology import graph_components, unique_rows
 
 __all__ = ["UVDiagnosis", "diagnose_layout"]
 
@@ -335,21 +336,31 @@ def _diagnose_texture(f, V, F, resolution, padding):
     ii, jj = overlap_pairs(f.UV, f.FUV, np.flatnonzero(f.oriented))
     li, lj = f.label[ii], f.label[jj]
     tiles_of = {}
-    for i in range(f.n_islands):
-        fi = f.island_faces(i)
-        pts = UVf[np.unique(FU[fi])]
-        lo, hi = pts.min(0), pts.max(0)
-        outside = bool(lo.min() < 0.0 or hi.max() > 1.0)
+    # every island's box and counts in one pass over the faces (a real asset may have thousands of islands)
+    n, u = f.n_islands, np.flatnonzero(f.usable)
+    lab = f.label[u]
+    lo, hi = np.full((n, 2), np.inf), np.full((n, 2), -np.inf)
+    corner_lab, corner_uv = np.repeat(lab, FU.shape[1]), UVf[FU[u].reshape(-1)]
+    np.minimum.at(lo, corner_lab, corner_uv)
+    np.maximum.at(hi, corner_lab, corner_uv)
+    count = {k: np.bincount(lab, weights=w[u], minlength=n).astype(np.int64) for k, w in
+             (("faces", np.ones(len(F))), ("mirrored_faces", it.mirrored_shell), ("folded", it.fold),
+              ("degenerate", it.degenerate), ("palette", it.palette), ("bad", bad))}
+    has_shell = it.shell[u] >= 0
+    shells = np.bincount(unique_rows(np.c_[lab[has_shell], it.shell[u][has_shell]])[:, 0], minlength=n)
+    for i in range(n):
+        outside = bool(lo[i].min() < 0.0 or hi[i].max() > 1.0)
         dens = f.density[i]
-        mir = it.mirrored_shell[fi]
-        islands.append({"island": i, "faces": int(len(fi)), "uv_box": [lo.tolist(), hi.tolist()],
-                        "texel_density": None if not np.isfinite(dens) else float(dens),
-                        "shells": int(len(np.unique(it.shell[fi][it.shell[fi] >= 0]))),
-                        "mirrored_faces": int(mir.sum()), "folded": int(it.fold[fi].sum()),
-                        "degenerate": int(it.degenerate[fi].sum()), "palette": int(it.palette[fi].sum()),
+        islands.append({"island": i, "faces": int(count["faces"][i]), "uv_box": [lo[i].tolist(), hi[i].tolist()],
+                        "texel_density": None if not np.isfinite(dens) else float(dens), "shells": int(shells[i]),
+                        **{k: int(count[k][i]) for k in ("mirrored_faces", "folded", "degenerate", "palette")},
                         "outside_unit_square": outside})
         if outside:
-            tiles_of[i] = _tiles(lo, hi)
+            tiles_of[i] = _tiles(lo[i], hi[i])
+        if not (count["bad"][i] or count["mirrored_faces"][i] or count["palette"][i]):
+            continue
+        fi = f.island_faces(i)
+        mir = it.mirrored_shell[fi]
         b = fi[bad[fi]]
         if len(b):
             cl = face_clusters(FU, b)
@@ -374,12 +385,7 @@ def _diagnose_texture(f, V, F, resolution, padding):
     # islands sharing texels: connected groups of the island-overlap graph (stacked or overlapping on purpose)
     cross = li != lj
     if cross.any():
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
-        n = f.n_islands
-        g = coo_matrix((np.ones(int(cross.sum())), (li[cross], lj[cross])), shape=(n, n))
-        _, comp = connected_components(g, directed=False)
+        _, comp = graph_components(n, li[cross], lj[cross])
         involved = np.unique(np.r_[li[cross], lj[cross]])
         for c in np.unique(comp[involved]):
             members = np.flatnonzero(comp == c)
