@@ -89,19 +89,19 @@ def main(argv=None):
     import signal
     import threading
 
-    argv = sys.argv[1:] if argv is None else list(argv)
-    try:
-        args = build_parser(argv).parse_args(argv)
-    except SystemExit as exc:  # --help, --version, or a one-line usage error
-        return exc.code if isinstance(exc.code, int) else EXIT_USER
     from neuraluv.errors import NeuralUVError, missing_extra
 
+    argv = sys.argv[1:] if argv is None else list(argv)
     previous = {}
     if threading.current_thread() is threading.main_thread():
         previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_signal)
         if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # not where Ctrl-C is ignored (`cmd &`)
             previous[signal.SIGINT] = signal.signal(signal.SIGINT, _on_signal)
     try:
+        try:
+            args = build_parser(argv).parse_args(argv)
+        except SystemExit as exc:  # --help, --version, or a one-line usage error
+            return exc.code if isinstance(exc.code, int) else EXIT_USER
         return args.func(args)
     except NeuralUVError as exc:
         print(f"neuraluv: error: {exc}", file=sys.stderr)
