@@ -14,8 +14,9 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 __all__ = [
-    "graph_components", "unique_rows", "TopologyReport", "topology_scan", "is_disk_like", "vertex_components", "split_components", "components",
-    "face_components", "faces_sharing", "edge_face_counts", "undirected_edges", "submesh", "boundary_loop", "bisect_faces",
+    "graph_components", "unique_rows", "TopologyReport", "topology_scan", "is_disk_like", "vertex_components",
+    "split_components", "components", "face_components", "faces_sharing", "edge_face_counts", "undirected_edges",
+    "submesh", "boundary_loop", "bisect_faces",
 ]
 
 
@@ -35,7 +36,7 @@ def graph_components(n, i, j):
     -------
     ncomp : int
     labels : (n,) int array
-        ``0 … ncomp-1``, numbered by each component's smallest node (as :func:`scipy.sparse.csgraph.connected_components`).
+        ``0 … ncomp-1``, numbered by each component's smallest node (as scipy's ``connected_components``).
 
     Notes
     -----
@@ -73,7 +74,7 @@ def graph_components(n, i, j):
 
 
 def unique_rows(A, return_index=False, return_inverse=False, return_counts=False):
-    """``np.unique(A, axis=0, ...)`` for an (k,2) array of non-negative integers, on one int64 key per row.
+    """``np.unique(A, axis=0, ...)`` for an (k,2) integer array (indices: one int64 key per row).
 
     Five times faster than ``axis=0`` on the small arrays of a chart; the same rows, in the same order.
 
@@ -84,6 +85,11 @@ def unique_rows(A, return_index=False, return_inverse=False, return_counts=False
            [2, 1]]), array([1, 2]))
     """
     A = np.asarray(A, np.int64).reshape(-1, 2)
+    if len(A) and A.min() < 0:  # not indices: the general (slower) path
+        out = np.unique(A, axis=0, return_index=return_index, return_inverse=return_inverse,
+                        return_counts=return_counts)
+        return tuple(o.reshape(-1) if k == 1 + return_index and return_inverse else o for k, o in enumerate(out)) \
+            if isinstance(out, tuple) else out
     base = int(A[:, 1].max()) + 1 if len(A) else 1
     out = np.unique(A[:, 0] * base + A[:, 1], return_index=return_index, return_inverse=return_inverse,
                     return_counts=return_counts)
@@ -91,7 +97,6 @@ def unique_rows(A, return_index=False, return_inverse=False, return_counts=False
         out = (out,)
     rows = np.stack([out[0] // base, out[0] % base], 1)
     return (rows, *out[1:]) if len(out) > 1 else rows
-
 
 
 def undirected_edges(F):

@@ -64,3 +64,39 @@ def test_nonmanifold_edge_and_vertex_and_winding():
     r = topology_scan(V, F)
     assert r.inconsistent_edges > 0
     assert "winding" in is_disk_like(V, F)[1]
+
+
+def test_graph_components_and_unique_rows_match_scipy_and_numpy():
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    from neuraluv.topology import SMALL_GRAPH, graph_components, unique_rows
+
+    rng = np.random.default_rng(0)
+    for t in range(300):
+        n = int(rng.integers(1, 200)) if t % 30 else SMALL_GRAPH + 10  # the NumPy path, and scipy's
+        e = int(rng.integers(0, 2 * n))
+        i, j = rng.integers(0, n, e), rng.integers(0, n, e)
+        k, lab = graph_components(n, i, j)
+        k2, lab2 = connected_components(sp.coo_matrix((np.ones(e), (i, j)), shape=(n, n)), directed=False)
+        assert k == k2 and np.array_equal(lab, lab2)
+        A = rng.integers(-3 if t % 2 else 0, 30, (e + 1, 2))
+        rows, idx, inv, cnt = unique_rows(A, return_index=True, return_inverse=True, return_counts=True)
+        r2, idx2, inv2, cnt2 = np.unique(A, axis=0, return_index=True, return_inverse=True, return_counts=True)
+        assert np.array_equal(rows, r2) and np.array_equal(idx, idx2) and np.array_equal(cnt, cnt2)
+        assert inv.shape == (len(A),) and np.array_equal(inv, inv2.reshape(-1))
+
+
+def test_boundary_loops_walk_as_libigl():
+    import igl
+
+    from neuraluv.topology import boundary_loop, boundary_loops
+
+    V, F = spherical_cap(8)
+    rng = np.random.default_rng(1)
+    for t in range(200):  # face subsets: strips, holes, several pieces, bow-ties (where libigl decides)
+        keep = np.sort(rng.choice(len(F), int(rng.integers(1, len(F))), replace=False))
+        Fs = np.searchsorted(np.unique(F[keep]), F[keep])
+        ours, theirs = boundary_loops(Fs), igl.boundary_loop_all(np.ascontiguousarray(Fs))
+        assert len(ours) == len(theirs) and all(np.array_equal(a, b) for a, b in zip(ours, theirs))
+        assert np.array_equal(boundary_loop(Fs), igl.boundary_loop(np.ascontiguousarray(Fs)))
