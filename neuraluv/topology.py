@@ -88,8 +88,7 @@ def unique_rows(A, return_index=False, return_inverse=False, return_counts=False
     if len(A) and A.min() < 0:  # not indices: the general (slower) path
         out = np.unique(A, axis=0, return_index=return_index, return_inverse=return_inverse,
                         return_counts=return_counts)
-        return tuple(o.reshape(-1) if k == 1 + return_index and return_inverse else o for k, o in enumerate(out)) \
-            if isinstance(out, tuple) else out
+        return (out[0], *(o.reshape(-1) for o in out[1:])) if isinstance(out, tuple) else out
     base = int(A[:, 1].max()) + 1 if len(A) else 1
     out = np.unique(A[:, 0] * base + A[:, 1], return_index=return_index, return_inverse=return_inverse,
                     return_counts=return_counts)

@@ -343,9 +343,10 @@ def _diagnose_texture(f, V, F, resolution, padding):
     corner_lab, corner_uv = np.repeat(lab, FU.shape[1]), UVf[FU[u].reshape(-1)]
     np.minimum.at(lo, corner_lab, corner_uv)
     np.maximum.at(hi, corner_lab, corner_uv)
-    count = {k: np.bincount(lab, weights=w[u], minlength=n).astype(np.int64) for k, w in
-             (("faces", np.ones(len(F))), ("mirrored_faces", it.mirrored_shell), ("folded", it.fold),
-              ("degenerate", it.degenerate), ("palette", it.palette), ("bad", bad))}
+    count = {k: np.bincount(lab[w[u]], minlength=n) for k, w in
+             (("mirrored_faces", it.mirrored_shell), ("folded", it.fold), ("degenerate", it.degenerate),
+              ("palette", it.palette), ("bad", bad))}
+    count["faces"] = np.bincount(lab, minlength=n)
     has_shell = it.shell[u] >= 0
     shells = np.bincount(unique_rows(np.c_[lab[has_shell], it.shell[u][has_shell]])[:, 0], minlength=n)
     for i in range(n):
