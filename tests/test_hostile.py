@@ -273,9 +273,10 @@ def _wait_until_busy(proc, cpu_seconds, limit=60.0):
         time.sleep(0.1)
 
 
-def _signal_unwrap(tmp_path, sig, cpu_seconds):
+def _signal_unwrap(tmp_path, sig, cpu_seconds, times=1):
     """Start ``neuraluv unwrap`` on the glove (paper preset, no time budget), send ``sig`` once it has used
-    ``cpu_seconds`` of CPU; return (seconds from the signal to its exit, return code, stderr, output path)."""
+    ``cpu_seconds`` of CPU (``times`` times, 20 ms apart); return (seconds from the signal to its exit, return code,
+    stderr, output path)."""
     V, F = datasets.glove()
     p = tmp_path / "glove.obj"
     write_obj(p, V, F, np.zeros((len(V), 2)))
@@ -287,7 +288,9 @@ def _signal_unwrap(tmp_path, sig, cpu_seconds):
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     _wait_until_busy(proc, cpu_seconds=cpu_seconds)
     t = time.perf_counter()
-    proc.send_signal(sig)
+    for k in range(times):
+        time.sleep(0.02 if k else 0)
+        proc.send_signal(sig)
     try:
         _, err = proc.communicate(timeout=20)
     except subprocess.TimeoutExpired:
@@ -319,6 +322,14 @@ def test_signals_during_startup_still_stop_cleanly(tmp_path, sig, code, cpu):
     # libigl garbled it (`ImportError: std::bad_cast`), or the process died of the signal after its message
     _, rc, err, out = _signal_unwrap(tmp_path, sig, cpu_seconds=cpu)
     _stopped_cleanly(tmp_path, rc, err, out, code)
+
+
+@pytest.mark.slow
+def test_a_second_ctrl_c_during_startup_is_the_same_request(tmp_path):
+    # a user presses Ctrl-C twice while another package is imported: each is re-sent until it lands in our code;
+    # one stop, 130 and one line, not a second message or a death by the signal after main has returned
+    _, rc, err, out = _signal_unwrap(tmp_path, signal.SIGINT, cpu_seconds=1.0, times=2)
+    _stopped_cleanly(tmp_path, rc, err, out, 130)
 
 
 # ---------------------------------------------------------------- garbage and degenerate inputs

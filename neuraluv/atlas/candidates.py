@@ -14,7 +14,7 @@ from neuraluv.metrics import distortion_metrics
 from neuraluv.topology import (bisect_faces, boundary_loop, boundary_loops, components, face_components, is_disk_like,
                                submesh, topology_scan)
 
-__all__ = ["seam_charts", "split_into_disks", "chart_candidates", "merge_small_charts",
+__all__ = ["Candidate", "seam_charts", "split_into_disks", "chart_candidates", "merge_small_charts",
            "congruent_components", "chart_mesh"]
 
 
@@ -180,18 +180,43 @@ def filled_chart(V, F, fidx):
     return np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx])
 
 
+class Candidate(tuple):
+    """A chart candidate ``(fidx, source)``; ``mesh`` is its :func:`chart_mesh` ``(vi, Fl, Vx, Fx)`` where the disk
+    test already built it (else None), so that routing the candidate on the same ``V, F`` need not build it again.
+
+    Examples
+    --------
+    >>> c = Candidate(np.arange(2), "component")
+    >>> fidx, source = c
+    >>> source, c.mesh
+    ('component', None)
+    """
+
+    def __new__(cls, fidx, source, mesh=None):
+        c = super().__new__(cls, (fidx, source))
+        c.mesh = mesh
+        return c
+
+
 def chart_is_disk(V, F, fidx):
     """``(ok, why)`` of :func:`~neuraluv.topology.is_disk_like` on the chart's :func:`chart_mesh`."""
+    return _chart_is_disk(V, F, fidx)[:2]
+
+
+def _chart_is_disk(V, F, fidx):
+    """:func:`chart_is_disk`, and the :func:`chart_mesh` it tested."""
     vi, Fl, Vx, Fx, scan = _chart_mesh(V, F, fidx)
     if scan is not None:
-        return is_disk_like(None, Fl, report=scan)
-    return is_disk_like(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))
+        ok, why = is_disk_like(None, Fl, report=scan)
+    else:
+        ok, why = is_disk_like(np.vstack([np.asarray(V, float)[vi], Vx]), np.vstack([Fl, Fx]))
+    return ok, why, (vi, Fl, Vx, Fx)
 
 
 def _make_disks(V, F, fidx, note, out, depth=0):
-    ok, why = chart_is_disk(V, F, fidx)
+    ok, why, mesh = _chart_is_disk(V, F, fidx)
     if ok:
-        out.append((fidx, note))
+        out.append(Candidate(fidx, note, mesh))
         return
     for p in bisect_faces(V, F, fidx):
         _make_disks(V, F, p, f"{note}; split (not disk-like: {why})" if depth == 0 else note, out, depth + 1)
@@ -209,9 +234,10 @@ def chart_candidates(V, F, *, max_cost=4.0):
 
     Returns
     -------
-    list of (fidx, source) pairs
-        ``source`` says how the candidate arose (``"component"``,
-        ``"xatlas seams (closed surface ...)"``, ``"...; split (...)"``).
+    list of Candidate
+        ``(fidx, source)`` pairs: ``source`` says how the candidate arose (``"component"``,
+        ``"xatlas seams (closed surface ...)"``, ``"...; split (...)"``); each carries the
+        :func:`chart_mesh` its disk test built, for :func:`~neuraluv.atlas.routing.route_charts`.
 
     Examples
     --------
@@ -224,7 +250,7 @@ def chart_candidates(V, F, *, max_cost=4.0):
     for vi, fi, Fc in components(V, F):
         ok, why = is_disk_like(V[vi], Fc)
         if ok:
-            out.append((fi, "component"))
+            out.append(Candidate(fi, "component"))
             continue
         if len(fi) <= 2:
             _make_disks(V, F, fi, "component", out)
@@ -359,7 +385,9 @@ def merge_small_charts(V, F, candidates, *, max_faces=64, max_curvature=0.3):
     out = []
     for k in sorted(faces):
         s, n = src[k]
-        out.append((np.sort(faces[k]), f"{s} + {n} merged" if n else s))
+        fk = np.sort(faces[k])
+        same = not n and np.array_equal(fk, candidates[k][0])
+        out.append(candidates[k] if same else (fk, f"{s} + {n} merged" if n else s))  # unmerged: as it came
     return out
 
 

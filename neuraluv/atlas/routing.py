@@ -342,7 +342,8 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
     V : (n,3) float array
     F : (m,3) int array
     candidates : list of (fidx, source)
-        Face sets of disk-like charts (e.g. :func:`~neuraluv.atlas.candidates.chart_candidates`).
+        Face sets of disk-like charts (e.g. :func:`~neuraluv.atlas.candidates.chart_candidates` of the
+        same ``V, F``, whose chart meshes are reused).
     config : str or SolverConfig
         The neural solver's preset (its retries apply per chart).
     seed : int
@@ -380,9 +381,11 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
         cfg = replace(cfg, start_slim=int(start_slim))
     t0 = time.perf_counter()
     done, todo = [], [(np.asarray(f, np.int64), s, "") for f, s in candidates]
+    known = [getattr(c, "mesh", None) for c in candidates]  # the chart meshes the candidates' disk tests built
     for level in range(splits + 1):
         out, retry = _route_round(V, F, todo, cfg, seed, device, deadline, progress and level == 0, t0,
-                                  prepare_chart, solve_charts, last=level == splits)
+                                  prepare_chart, solve_charts, last=level == splits,
+                                  known=known if level == 0 else None)
         done += [c for c in out if c is not None]
         todo = []
         for fidx, src, why in retry:
@@ -398,12 +401,14 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
     return done
 
 
-def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_chart, solve_charts, last):
+def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_chart, solve_charts, last, known=None):
     """One routing round; returns (charts, [(fidx, source, why) to split and retry])."""
     out = [None] * len(todo)
     retry, retried = [], set()
     idx, preps, why = [], [], {}
-    meshes = [chart_mesh(V, F, fidx) for fidx, _, _ in todo]  # bow-ties split, holes filled (fillers dropped later)
+    known = known or [None] * len(todo)
+    meshes = [m if m is not None else chart_mesh(V, F, fidx)   # bow-ties split, holes filled (fillers dropped later)
+              for (fidx, _, _), m in zip(todo, known)]
     for k, (fidx, src, note) in enumerate(todo):
         vi, Fl, Vx, Fx = meshes[k]
         uv = unfold_tree(V[vi], Fl) if len(Fx) == 0 else None

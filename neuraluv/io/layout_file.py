@@ -31,16 +31,17 @@ def read_layout(path, uv_set=0):
         The glTF UV set ``TEXCOORD_<uv_set>`` (an OBJ has one: 0).
     """
     from neuraluv.io.gltf import read_gltf_layout
-    from neuraluv.io.mesh import load_mesh
+    from neuraluv.io.mesh import check_mesh_arrays, check_mesh_file
     from neuraluv.io.obj import read_obj
 
     path = Path(path)
     if path.suffix.lower() == ".obj":
         if uv_set:
             raise NeuralUVError("an OBJ has one set of texture coordinates (vt): --uv-set must be 0")
-        load_mesh(path)  # one-line errors for empty or garbage files
+        check_mesh_file(path)  # one-line errors for missing, empty or garbage files, as load_mesh gives them
         data = read_obj(path, keep_lines=True)
         V, F, UV, FUV = data
+        check_mesh_arrays(V, F, name=path.name)
         if FUV is None or len(UV) == 0:
             raise NeuralUVError(f"{path.name} has no per-corner texture coordinates (vt); use `neuraluv atlas` to "
                                 "make a layout")

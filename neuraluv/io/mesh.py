@@ -15,7 +15,7 @@ from neuraluv.errors import MeshLoadError
 from neuraluv.io import MESH_EXTENSIONS
 from neuraluv.io.obj import read_obj
 
-__all__ = ["check_mesh_arrays", "load_mesh"]
+__all__ = ["check_mesh_arrays", "check_mesh_file", "load_mesh"]
 
 
 def check_mesh_arrays(V, F, *, name="mesh"):
@@ -107,6 +107,37 @@ def _quiet_stderr():
         os.close(devnull)
 
 
+def check_mesh_file(path) -> Path:
+    """``path`` as a Path when it names a non-empty regular file of a known mesh format; else a one-line error.
+
+    Raises
+    ------
+    MeshLoadError
+        Missing, a directory, not a regular file, empty, or an unknown extension.
+
+    Examples
+    --------
+    >>> check_mesh_file("no/such/mesh.obj")
+    Traceback (most recent call last):
+    ...
+    neuraluv.errors.MeshLoadError: no/such/mesh.obj: no such file
+    """
+    path = Path(path)
+    if not path.exists():
+        raise MeshLoadError(f"{path}: no such file")
+    if path.is_dir():
+        raise MeshLoadError(f"{path}: is a directory, expected a mesh file")
+    if not path.is_file():
+        raise MeshLoadError(f"{path}: not a regular file (a pipe or device?); save the mesh to a file first")
+    if path.stat().st_size == 0:
+        raise MeshLoadError(f"{path}: file is empty")
+    suffix = path.suffix.lower()
+    if suffix not in MESH_EXTENSIONS:
+        raise MeshLoadError(f"{path.name}: unknown mesh format {suffix or '(no extension)'!r}; "
+                            f"use one of {', '.join(MESH_EXTENSIONS)}")
+    return path
+
+
 def load_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     """Load a triangle mesh from disk without merging or reordering vertices.
 
@@ -133,19 +164,8 @@ def load_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     trimesh with ``process=False``, so that vertices sharing a position but not
     a UV (texture seams) stay separate: a supplied chart keeps its seams.
     """
-    path = Path(path)
-    if not path.exists():
-        raise MeshLoadError(f"{path}: no such file")
-    if path.is_dir():
-        raise MeshLoadError(f"{path}: is a directory, expected a mesh file")
-    if not path.is_file():
-        raise MeshLoadError(f"{path}: not a regular file (a pipe or device?); save the mesh to a file first")
-    if path.stat().st_size == 0:
-        raise MeshLoadError(f"{path}: file is empty")
+    path = check_mesh_file(path)
     suffix = path.suffix.lower()
-    if suffix not in MESH_EXTENSIONS:
-        raise MeshLoadError(f"{path.name}: unknown mesh format {suffix or '(no extension)'!r}; "
-                            f"use one of {', '.join(MESH_EXTENSIONS)}")
     if suffix == ".obj":  # our exact parser: indices checked, nothing merged or guessed
         V, F, _, _ = read_obj(path)
         return check_mesh_arrays(V, F, name=path.name)
