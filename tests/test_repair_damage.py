@@ -63,6 +63,28 @@ def test_a_fold_on_rows_twin_halves_share_is_repaired_in_both_halves_at_once():
     assert res.changed_rows.sum() <= 4
 
 
+def test_a_fold_no_local_step_repairs_on_twin_halves_gets_its_shell_resolved_on_its_own_rows(monkeypatch):
+    # the last resort for a shell that shares every row with its twin (Blender's mirrored Suzanne, a fold at its
+    # seam that no region, layer or untangle repaired): it was left folded and the output was invalid. Now the
+    # shell is re-solved on its own copies of the shared rows, the other half keeps the originals (here it is
+    # folded too, by the same damaged row, and is re-solved in turn).
+    import neuraluv.repair.shells as shells
+
+    def nothing(*a, **k):
+        return None, {}
+
+    for name in ("repair_cluster", "repair_twin_layers", "repair_across_shells", "untangle_faces"):
+        monkeypatch.setattr(shells, name, nothing)
+    V, F, UV, FUV = twin_halves()
+    bad = UV.copy()
+    bad[12] += [0.15, 0.03]
+    res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+    steps = [a for isl in res.islands for a in isl["actions"]]
+    assert any(a.get("split_rows") for a in steps), steps
+    assert len(res.UV) > len(UV) and not np.array_equal(res.FUV, FUV)  # on rows of its own
+
+
 def pole_cap(nu=16, nv=6):
     """A latitude-longitude map of a spherical cap: an ``nu`` × ``nv`` quad grid in UV (4:1), its top row of
     vertices all at the pole in 3D, each with its own ``vt`` row, so each top quad is one stretched triangle

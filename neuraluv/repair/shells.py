@@ -154,13 +154,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
             before_split = (work, FUVw, locked, held, graph)
             if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
-                new = len(work) + np.arange(len(split))
-                work = np.vstack([work, work[split]])
-                sub = FUVw[shell]
-                hit = np.isin(sub, split)
-                sub[hit] = new[np.searchsorted(split, sub[hit])]
-                FUVw = FUVw.copy()
-                FUVw[shell] = sub
+                work, FUVw = _own_copies(work, FUVw, shell, split)
                 locked = np.r_[locked, np.zeros(len(split), bool)]
                 held = np.r_[held, np.zeros(len(split), bool)]
                 graph = IslandGraph(FUVw, shell, len(work), locked=locked)
@@ -191,15 +185,19 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             if out is None:
                 rows = np.setdiff1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
                 out, info = untangle_faces(Vn, F, work, FUVw, shell, rows, dens, allowed, deadline=deadline)
-            if out is None and neural and not budget_spent(deadline) and not locked[np.unique(FUVw[shell])].any():
-                # the last resort of a shell of its own: re-solved as a chart, fitted back where it was (every
-                # UV of the shell moves a little; the texture is re-baked)
-                out_uv, out_fuv, info = resolve_as_chart(Vn, F, work, FUVw, shell, dens, cfg, seed=seed,
+            if out is None and neural and not budget_spent(deadline):
+                # the last resort: the shell re-solved as a chart, fitted back where it was (every UV of the shell
+                # moves a little; the texture is re-baked); a shell that shares rows with others (twin halves, a
+                # mirror seam) on its own copies of them, so the others keep theirs
+                shared = np.intersect1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
+                W, FU = _own_copies(work, FUVw, shell, shared) if len(shared) else (work, FUVw)
+                out_uv, out_fuv, info = resolve_as_chart(Vn, F, W, FU, shell, dens, cfg, seed=seed,
                                                          device=device, deadline=deadline)
-                if (face_dets_of(Vn, F, out_uv, out_fuv, cl) > 0).all():
+                if (face_dets_of(Vn, F, out_uv, out_fuv, shell[~facts.degenerate3d[shell]]) > 0).all():
                     work, FUVw = out_uv, out_fuv
                     actions[i].append({"step": info["step"], "cluster_faces": int(len(cl)), "time": info["time"],
-                                       "shell": int(k), "pieces": info["pieces"]})
+                                       "shell": int(k), "pieces": info["pieces"],
+                                       **({"split_rows": int(len(shared))} if len(shared) else {})})
                     break  # the whole shell is new: its other clusters went with it
             if out is None:
                 actions[i].append({"step": "left folded", "cluster_faces": int(len(cl)),
@@ -212,6 +210,26 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                                  **({"mirrored_shell": True} if flip else {})})
         UVw = work * np.array([-1.0, 1.0]) if flip else work
     return UVw, FUVw
+
+
+def _own_copies(UV, FUV, shell, rows):
+    """``(UV, FUV)`` where the faces ``shell`` use new copies (appended, same values) of the sorted ``rows``; the
+    other faces keep the originals.
+
+    Examples
+    --------
+    >>> UV, FUV = np.zeros((4, 2)), np.array([[0, 1, 2], [1, 3, 2]])
+    >>> U2, F2 = _own_copies(UV, FUV, np.array([1]), np.array([1, 2]))
+    >>> len(U2), F2.tolist()
+    (6, [[0, 1, 2], [4, 3, 5]])
+    """
+    new = len(UV) + np.arange(len(rows))
+    sub = FUV[shell]
+    hit = np.isin(sub, rows)
+    sub[hit] = new[np.searchsorted(rows, sub[hit])]
+    FUV = FUV.copy()
+    FUV[shell] = sub
+    return np.vstack([UV, UV[rows]]), FUV
 
 
 def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale, *, allowed_cache=None, **kw):
