@@ -101,7 +101,8 @@ def test_the_compiled_untangle_energy_is_the_numpy_one():
     import pytest
 
     from neuraluv.lazy import HAS_NUMBA
-    from neuraluv.repair.untangle import RegionEnergy, _kernels, untangle_energy
+    from neuraluv.repair.kernels import untangle_kernels as _kernels
+    from neuraluv.repair.untangle import RegionEnergy, untangle_energy
 
     if not HAS_NUMBA:
         pytest.skip("numba is not installed (the optional extra `fast`): only the NumPy energy runs here")
@@ -116,6 +117,34 @@ def test_the_compiled_untangle_energy_is_the_numpy_one():
         E1, g1, d1 = _kernels()[0](bad, R.T, R.K, R.w, R.slot, len(R.free), x, 0.5, eps)
         assert d0 < 0 and d1 == d0
         assert np.isclose(E1, E0, rtol=1e-12) and np.allclose(g1, g0, rtol=1e-10, atol=1e-12 * np.abs(g0).max())
+
+
+def test_the_compiled_polish_takes_the_numpy_polish_steps(monkeypatch):
+    """numba's polish (energy, flip-free step bound, L-BFGS) runs the NumPy polish's iterations: the same number
+    of steps, the same energies and map to rounding, on a region with a fixed boundary."""
+    import pytest
+
+    import neuraluv.repair.untangle as un
+    from neuraluv.lazy import HAS_NUMBA
+    from neuraluv.metrics import distortion_metrics
+
+    if not HAS_NUMBA:
+        pytest.skip("numba is not installed (the optional extra `fast`): only the NumPy polish runs here")
+    V, F, UV = _flat_disk(8)
+    UV = UV + 0.02 * np.sin(7 * UV[:, ::-1])  # a valid map with distortion to lower
+    free = np.flatnonzero(np.linalg.norm(UV - UV.mean(0), axis=1) < 0.25)
+    region = np.flatnonzero(np.isin(F, free).any(1))
+    s = reference_scale(V, F, UV)
+    outs = {}
+    for compiled in (False, True):
+        monkeypatch.setattr(un, "COMPILED", compiled)
+        outs[compiled] = un.polish(V, F, UV, F, region, free, scale=s)
+    (a, ia), (b, ib) = outs[False], outs[True]
+    assert ia["iterations"] == ib["iterations"] > 5 and ia["converged"] == ib["converged"]
+    assert np.isclose(ia["energy_after"], ib["energy_after"], rtol=1e-9) and ia["energy_after"] < ia["energy_before"]
+    assert np.allclose(a, b, atol=1e-9) and distortion_metrics(V, F, b)["flips"] == 0
+    fixed = np.setdiff1d(np.arange(len(UV)), free)
+    assert np.array_equal(b[fixed], UV[fixed])  # only the free rows move
 
 
 def test_self_overlap_without_flips_is_found_and_repaired():

@@ -12,11 +12,11 @@ coordinates: every other row of ``UV`` is returned bit-identical.
 
 Both work on per-corner layouts (``UV (p,2)`` indexed by ``FUV (m,3)``), measure
 each face's Jacobian against its own 3D triangle, and are plain NumPy/SciPy
-(no torch), so repairing a small fold costs milliseconds.
+(no torch), so repairing a small fold costs milliseconds; with numba installed
+their loops run compiled (:mod:`neuraluv.repair.kernels`).
 """
 from __future__ import annotations
 
-import functools
 import time
 from dataclasses import dataclass
 
@@ -24,17 +24,17 @@ import numpy as np
 from scipy.optimize import minimize
 
 from neuraluv.jacobian import local_frames
-from neuraluv.lazy import HAS_NUMBA, jit
+from neuraluv.lazy import HAS_NUMBA
+from neuraluv.repair.kernels import polish_kernels, untangle_kernels
 
 __all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_energy_terms", "budget_spent"]
 
 
-#: Regions of at least this many faces are untangled by a compiled L-BFGS on the compiled energy (numba, when
-#: installed): a real asset's folds evaluate the energy some 10⁵ times, where NumPy's and SciPy's per-call
-#: costs dominate (the authored Duck's damaged layouts: 40 s → 7 s), while the few thousand evaluations of a
-#: fold of a few faces cost less in NumPy than loading numba into the process (~0.4 s). 16 rather than 64:
-#: the same results on the authored damage sweep, its Duck cases 0.4–1.3 s faster.
-COMPILED_FROM = 16
+#: With numba installed (the ``fast`` extra) the untangle and the polish run compiled
+#: (:mod:`neuraluv.repair.kernels`): a real asset's folds evaluate their energies some 10⁵ times, where NumPy's
+#: and SciPy's per-call costs dominate (the authored Duck's damaged layouts: 40 s → 7 s for the untangle's
+#: energy; a fold of the Duck, seed 12: 11.2 s → 4.5 s with the polish and the small regions compiled too).
+COMPILED = HAS_NUMBA
 
 
 def _stop_at(deadline):
@@ -184,50 +184,6 @@ def _chi(D, eps):
         return np.where(D >= 0, 0.5 * (D + r), eps * eps / (2.0 * (r - D)))
 
 
-def _untangle_energy(U0, T, K, w, slot, k, x, theta, eps):  # pragma: no cover - run compiled by numba
-    """:func:`untangle_energy` in one loop over the faces, for numba (``k``: the number of free rows).
-
-    The same sums as :func:`untangle_energy` (compiled by numba when installed: an untangle
-    evaluates its energy some 10⁵ times on a real asset, where NumPy's per-call cost dominates).
-    """
-    G = np.zeros(2 * k)
-    E = 0.0
-    dmin = np.inf
-    P = np.empty((3, 2))
-    for t in range(T.shape[0]):
-        for j in range(3):
-            s = slot[t, j]
-            if s >= 0:
-                P[j, 0] = x[2 * s]
-                P[j, 1] = x[2 * s + 1]
-            else:
-                P[j, 0] = U0[T[t, j], 0]
-                P[j, 1] = U0[T[t, j], 1]
-        e1x, e1y = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1]
-        e2x, e2y = P[2, 0] - P[0, 0], P[2, 1] - P[0, 1]
-        k00, k01, k10, k11 = K[t, 0, 0], K[t, 0, 1], K[t, 1, 0], K[t, 1, 1]
-        a, b = e1x * k00 + e2x * k10, e1x * k01 + e2x * k11
-        c, d = e1y * k00 + e2y * k10, e1y * k01 + e2y * k11
-        D = a * d - b * c
-        r = np.sqrt(eps * eps + D * D)
-        chi = 0.5 * (D + r) if D >= 0 else eps * eps / (2.0 * (r - D))
-        N = (1 - theta) * (a * a + b * b + c * c + d * d) + theta * (D * D + 1.0)
-        E += w[t] * (N / chi)
-        dF = (1 - theta) / chi * w[t]
-        dD = (2 * theta * D * chi - N * (chi / r)) / (chi * chi) * w[t]
-        Ea, Eb = 2 * a * dF + d * dD, 2 * b * dF - c * dD
-        Ec, Ed = 2 * c * dF - b * dD, 2 * d * dF + a * dD
-        g1x, g2x = Ea * k00 + Eb * k01, Ea * k10 + Eb * k11
-        g1y, g2y = Ec * k00 + Ed * k01, Ec * k10 + Ed * k11
-        for j, gx, gy in ((0, -(g1x + g2x), -(g1y + g2y)), (1, g1x, g1y), (2, g2x, g2y)):
-            s = slot[t, j]
-            if s >= 0:
-                G[2 * s] += gx
-                G[2 * s + 1] += gy
-        dmin = min(dmin, D)
-    return E, G, dmin
-
-
 def untangle_energy(R, U0, x, theta, eps):
     """:func:`untangle`'s energy at the free rows ``x``: ``(E, ∂E/∂x, smallest det J)`` (NumPy; see :func:`untangle`).
 
@@ -258,72 +214,6 @@ def untangle_energy(R, U0, x, theta, eps):
     return float((R.w * f).sum()), g, float(D.min())
 
 
-def _untangle_minimize(U0, T, K, w, slot, k, x0, theta, eps, maxiter, m, ftol, gtol):  # pragma: no cover - numba
-    """One ε-step of :func:`untangle`: L-BFGS (memory ``m``, backtracking Armijo line search) on
-    :func:`_untangle_energy` from ``x0``, for numba; stops after ``maxiter`` iterations, when an iteration
-    lowers the energy by at most ``ftol`` (relative) or when the gradient's largest entry is at most ``gtol``.
-    Returns the last iterate."""
-    n = x0.shape[0]
-    x = x0.copy()
-    f, g, _ = _untangle_energy(U0, T, K, w, slot, k, x, theta, eps)
-    S = np.zeros((m, n))
-    Y = np.zeros((m, n))
-    rho = np.zeros(m)
-    alpha = np.zeros(m)
-    count, head = 0, 0
-    for _ in range(maxiter):
-        if np.max(np.abs(g)) <= gtol:
-            break
-        q = -g
-        for j in range(count):  # two-loop recursion, newest pair first
-            i = (head - 1 - j) % m
-            alpha[i] = rho[i] * np.dot(S[i], q)
-            q = q - alpha[i] * Y[i]
-        if count > 0:
-            i = (head - 1) % m
-            q = q * (np.dot(S[i], Y[i]) / np.dot(Y[i], Y[i]))
-        else:
-            q = q / max(np.sqrt(np.dot(g, g)), 1e-300)  # the first step: unit length along -g
-        for j in range(count - 1, -1, -1):
-            i = (head - 1 - j) % m
-            q = q + S[i] * (alpha[i] - rho[i] * np.dot(Y[i], q))
-        gd = np.dot(g, q)
-        if not gd < 0:  # not a descent direction: forget the pairs, steepest descent
-            count = 0
-            q = -g / max(np.sqrt(np.dot(g, g)), 1e-300)
-            gd = np.dot(g, q)
-        t = 1.0
-        found = False
-        for _ls in range(60):
-            xn = x + t * q
-            fn, gn, _ = _untangle_energy(U0, T, K, w, slot, k, xn, theta, eps)
-            if np.isfinite(fn) and fn <= f + 1e-4 * t * gd:
-                found = True
-                break
-            t *= 0.5
-        if not found:
-            break
-        sv, yv = xn - x, gn - g
-        sy = np.dot(sv, yv)
-        if sy > 1e-10 * np.sqrt(np.dot(sv, sv) * np.dot(yv, yv)):
-            S[head], Y[head], rho[head] = sv, yv, 1.0 / sy
-            head = (head + 1) % m
-            count = min(count + 1, m)
-        drop = f - fn
-        x, f, g = xn, fn, gn
-        if drop <= ftol * max(abs(f), abs(f + drop), 1.0):
-            break
-    return x
-
-
-@functools.cache
-def _kernels():
-    """``(energy, minimize)``: :func:`_untangle_energy` and :func:`_untangle_minimize` compiled by numba (once)."""
-    global _untangle_energy
-    _untangle_energy = jit(_untangle_energy)  # the global _untangle_minimize calls, compiled before it is
-    return _untangle_energy, jit(_untangle_minimize)
-
-
 def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inner=300, deadline=None, sign=None):
     """Untangle a folded region by moving only the ``free`` rows (Garanzha et al. 2021).
 
@@ -343,9 +233,9 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     theta : float
         Weight of the area term (the paper's ½).
     max_outer, inner : int
-        ε-steps, and L-BFGS iterations per step (SciPy's L-BFGS-B on the NumPy energy; for regions of at least
-        :data:`COMPILED_FROM` faces with numba installed, a compiled L-BFGS with a backtracking line search on
-        the compiled energy: the same minimisation, other iterates).
+        ε-steps, and L-BFGS iterations per step (SciPy's L-BFGS-B on the NumPy energy; with numba installed,
+        :data:`COMPILED`, a compiled L-BFGS with a backtracking line search on the compiled energy: the same
+        minimisation, other iterates).
     deadline : float, optional
         ``time.perf_counter()`` value after which no further ε-step starts (``ok`` tells whether the map so far
         is fold-free).
@@ -402,7 +292,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
                         options={"maxiter": int(inner), "maxcor": 10, "ftol": 1e-13, "gtol": 1e-11},
                         callback=None if deadline is None else _stop_at(deadline)).x
 
-    compiled = _kernels() if HAS_NUMBA and len(R.T) >= COMPILED_FROM else None
+    compiled = untangle_kernels() if COMPILED else None
     x = U0[R.free].reshape(-1).copy()
     E, _, dmin = energy(x, 1.0)
     if dmin > 0:
@@ -440,7 +330,8 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
     scale : float
         Texel density at which an isometry has ``J = I``.
     max_iter, history : int
-        L-BFGS iterations and memory.
+        L-BFGS iterations and memory (with numba installed, :data:`COMPILED`, the same iterations run compiled:
+        the same steps to rounding).
     deadline : float, optional
         ``time.perf_counter()`` value after which the polish stops (every accepted step is valid).
     sign : (m,) float array, optional
@@ -495,6 +386,8 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
         return float((R.w * s).sum() + alpha * (gap * gap).sum()), g
 
     x = U0[R.free].reshape(-1).copy()
+    if COMPILED:
+        return _polish_compiled(R, U0, x, max_iter, history, eps_J, eps, alpha, tol, deadline)
     E, g = energy(x)
     E0 = E
     S, Y = [], []
@@ -545,7 +438,37 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
         if drop <= tol * abs(E):
             converged = True
             break
+    return _polished(R, U0, x, it, E0, E, converged)
+
+
+def _polished(R, U0, x, it, E0, E, converged):
+    """:func:`polish`'s result from its last iterate ``x``."""
     out = R.place(U0, x)
     if not (np.isfinite(out[R.free]).all() and (R.dets(out) > 0).all()):  # cannot happen; never return worse
         return U0.copy(), {"iterations": it, "energy_before": E0, "energy_after": E0, "converged": False}
     return out, {"iterations": it, "energy_before": E0, "energy_after": E, "converged": converged}
+
+
+#: Iterations of the compiled polish between two looks at the time budget.
+POLISH_CHUNK = 25
+
+
+def _polish_compiled(R, U0, x, max_iter, history, eps_J, eps, alpha, tol, deadline):
+    """:func:`polish`'s loop compiled by numba (:func:`~neuraluv.repair.kernels.polish_kernels`): the same
+    iterations, run :data:`POLISH_CHUNK` at a time so that the time budget is looked at between them."""
+    energy, minimize_ = polish_kernels()
+    k = len(R.free)
+    args = (U0, R.T, R.K, R.w, R.slot, k)
+    E0 = E = float(energy(*args, x, eps_J, eps, alpha)[0])
+    S, Y = np.zeros((history, 2 * k)), np.zeros((history, 2 * k))
+    state = np.zeros(2, np.int64)
+    it, converged = 0, False
+    while it < max_iter:
+        if it and budget_spent(deadline):  # every step keeps the map valid: stop where it is
+            break
+        code, n, E = minimize_(*args, x, eps_J, eps, alpha, min(POLISH_CHUNK, max_iter - it), tol, S, Y, state)
+        it += int(n)
+        if code:
+            converged = code == 1
+            break
+    return _polished(R, U0, x, it, E0, float(E), converged)
