@@ -17,30 +17,44 @@ from neuraluv.lazy import jit
 __all__ = ["untangle_kernels", "polish_kernels"]
 
 
-def _untangle_energy(U0, T, K, w, slot, k, x, theta, eps):  # pragma: no cover - run compiled by numba
-    """:func:`~neuraluv.repair.untangle.untangle_energy` in one loop over the faces, for numba (``k``: the number of free rows).
+def _entries(U0, T, K, slot, x, t, P):  # pragma: no cover - run compiled by numba
+    """Face ``t``'s corners into ``P (3,2)`` (a free row's from ``x``, the others' from ``U0``) and the entries
+    ``(a, b, c, d)`` of its Jacobian."""
+    for j in range(3):
+        s = slot[t, j]
+        if s >= 0:
+            P[j, 0] = x[2 * s]
+            P[j, 1] = x[2 * s + 1]
+        else:
+            P[j, 0] = U0[T[t, j], 0]
+            P[j, 1] = U0[T[t, j], 1]
+    e1x, e1y = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1]
+    e2x, e2y = P[2, 0] - P[0, 0], P[2, 1] - P[0, 1]
+    k00, k01, k10, k11 = K[t, 0, 0], K[t, 0, 1], K[t, 1, 0], K[t, 1, 1]
+    return e1x * k00 + e2x * k10, e1x * k01 + e2x * k11, e1y * k00 + e2y * k10, e1y * k01 + e2y * k11
 
-    The same sums as :func:`~neuraluv.repair.untangle.untangle_energy` (compiled by numba when installed: an untangle
-    evaluates its energy some 10⁵ times on a real asset, where NumPy's per-call cost dominates).
-    """
+
+def _scatter(G, K, slot, t, Ea, Eb, Ec, Ed):  # pragma: no cover - run compiled by numba
+    """Add face ``t``'s ``∂E/∂(a, b, c, d)`` to the gradient ``G`` of the free rows (through its three corners)."""
+    k00, k01, k10, k11 = K[t, 0, 0], K[t, 0, 1], K[t, 1, 0], K[t, 1, 1]
+    g1x, g2x = Ea * k00 + Eb * k01, Ea * k10 + Eb * k11
+    g1y, g2y = Ec * k00 + Ed * k01, Ec * k10 + Ed * k11
+    for j, gx, gy in ((0, -(g1x + g2x), -(g1y + g2y)), (1, g1x, g1y), (2, g2x, g2y)):
+        s = slot[t, j]
+        if s >= 0:
+            G[2 * s] += gx
+            G[2 * s + 1] += gy
+
+
+def _untangle_energy(U0, T, K, w, slot, k, x, theta, eps):  # pragma: no cover - run compiled by numba
+    """:func:`~neuraluv.repair.untangle.untangle_energy` in one loop over the faces, for numba (``k``: the number
+    of free rows): the same sums."""
     G = np.zeros(2 * k)
     E = 0.0
     dmin = np.inf
     P = np.empty((3, 2))
     for t in range(T.shape[0]):
-        for j in range(3):
-            s = slot[t, j]
-            if s >= 0:
-                P[j, 0] = x[2 * s]
-                P[j, 1] = x[2 * s + 1]
-            else:
-                P[j, 0] = U0[T[t, j], 0]
-                P[j, 1] = U0[T[t, j], 1]
-        e1x, e1y = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1]
-        e2x, e2y = P[2, 0] - P[0, 0], P[2, 1] - P[0, 1]
-        k00, k01, k10, k11 = K[t, 0, 0], K[t, 0, 1], K[t, 1, 0], K[t, 1, 1]
-        a, b = e1x * k00 + e2x * k10, e1x * k01 + e2x * k11
-        c, d = e1y * k00 + e2y * k10, e1y * k01 + e2y * k11
+        a, b, c, d = _entries(U0, T, K, slot, x, t, P)
         D = a * d - b * c
         r = np.sqrt(eps * eps + D * D)
         chi = 0.5 * (D + r) if D >= 0 else eps * eps / (2.0 * (r - D))
@@ -48,23 +62,14 @@ def _untangle_energy(U0, T, K, w, slot, k, x, theta, eps):  # pragma: no cover -
         E += w[t] * (N / chi)
         dF = (1 - theta) / chi * w[t]
         dD = (2 * theta * D * chi - N * (chi / r)) / (chi * chi) * w[t]
-        Ea, Eb = 2 * a * dF + d * dD, 2 * b * dF - c * dD
-        Ec, Ed = 2 * c * dF - b * dD, 2 * d * dF + a * dD
-        g1x, g2x = Ea * k00 + Eb * k01, Ea * k10 + Eb * k11
-        g1y, g2y = Ec * k00 + Ed * k01, Ec * k10 + Ed * k11
-        for j, gx, gy in ((0, -(g1x + g2x), -(g1y + g2y)), (1, g1x, g1y), (2, g2x, g2y)):
-            s = slot[t, j]
-            if s >= 0:
-                G[2 * s] += gx
-                G[2 * s + 1] += gy
+        _scatter(G, K, slot, t, 2 * a * dF + d * dD, 2 * b * dF - c * dD, 2 * c * dF - b * dD, 2 * d * dF + a * dD)
         dmin = min(dmin, D)
     return E, G, dmin
 
 
-
 def _untangle_minimize(U0, T, K, w, slot, k, x0, theta, eps, maxiter, m, ftol, gtol):  # pragma: no cover - numba
-    """One ε-step of :func:`~neuraluv.repair.untangle.untangle`: L-BFGS (memory ``m``, backtracking Armijo line search) on
-    :func:`_untangle_energy` from ``x0``, for numba; stops after ``maxiter`` iterations, when an iteration
+    """One ε-step of :func:`~neuraluv.repair.untangle.untangle`: L-BFGS (memory ``m``, backtracking Armijo line
+    search) on :func:`_untangle_energy` from ``x0``, for numba; stops after ``maxiter`` iterations, when an iteration
     lowers the energy by at most ``ftol`` (relative) or when the gradient's largest entry is at most ``gtol``.
     Returns the last iterate."""
     n = x0.shape[0]
@@ -128,19 +133,7 @@ def _polish_energy(U0, T, K, w, slot, k, x, eps_J, eps, alpha):  # pragma: no co
     E = 0.0
     P = np.empty((3, 2))
     for t in range(T.shape[0]):
-        for j in range(3):
-            s = slot[t, j]
-            if s >= 0:
-                P[j, 0] = x[2 * s]
-                P[j, 1] = x[2 * s + 1]
-            else:
-                P[j, 0] = U0[T[t, j], 0]
-                P[j, 1] = U0[T[t, j], 1]
-        e1x, e1y = P[1, 0] - P[0, 0], P[1, 1] - P[0, 1]
-        e2x, e2y = P[2, 0] - P[0, 0], P[2, 1] - P[0, 1]
-        k00, k01, k10, k11 = K[t, 0, 0], K[t, 0, 1], K[t, 1, 0], K[t, 1, 1]
-        a, b = e1x * k00 + e2x * k10, e1x * k01 + e2x * k11
-        c, d = e1y * k00 + e2y * k10, e1y * k01 + e2y * k11
+        a, b, c, d = _entries(U0, T, K, slot, x, t, P)
         fro2, D = a * a + b * b + c * c + d * d, a * d - b * c
         if D > eps_J:
             q, dq = D ** -2.0, -2.0 * D ** -3.0
@@ -152,15 +145,7 @@ def _polish_energy(U0, T, K, w, slot, k, x, eps_J, eps, alpha):  # pragma: no co
         E += w[t] * fro2 * (1.0 + q) + alpha * gap * gap
         dF = (1.0 + q) * w[t]
         dD = fro2 * dq * w[t] - 2.0 * alpha * gap
-        Ea, Eb = 2 * a * dF + d * dD, 2 * b * dF - c * dD
-        Ec, Ed = 2 * c * dF - b * dD, 2 * d * dF + a * dD
-        g1x, g2x = Ea * k00 + Eb * k01, Ea * k10 + Eb * k11
-        g1y, g2y = Ec * k00 + Ed * k01, Ec * k10 + Ed * k11
-        for j, gx, gy in ((0, -(g1x + g2x), -(g1y + g2y)), (1, g1x, g1y), (2, g2x, g2y)):
-            s = slot[t, j]
-            if s >= 0:
-                G[2 * s] += gx
-                G[2 * s + 1] += gy
+        _scatter(G, K, slot, t, 2 * a * dF + d * dD, 2 * b * dF - c * dD, 2 * c * dF - b * dD, 2 * d * dF + a * dD)
     return E, G
 
 
@@ -260,9 +245,17 @@ def _polish_minimize(U0, T, K, w, slot, k, x, eps_J, eps, alpha, n_iter, tol, S,
 
 
 @functools.cache
+def _helpers():
+    """The per-face helpers compiled (once), before the energies that call them."""
+    global _entries, _scatter
+    _entries, _scatter = jit(_entries), jit(_scatter)
+
+
+@functools.cache
 def untangle_kernels():
     """``(energy, minimize)``: :func:`_untangle_energy` and :func:`_untangle_minimize` compiled by numba (once)."""
     global _untangle_energy
+    _helpers()
     _untangle_energy = jit(_untangle_energy)  # the global _untangle_minimize calls, compiled before it is
     return _untangle_energy, jit(_untangle_minimize)
 
@@ -271,6 +264,7 @@ def untangle_kernels():
 def polish_kernels():
     """``(energy, minimize)``: :func:`_polish_energy` and :func:`_polish_minimize` compiled by numba (once)."""
     global _polish_energy, _polish_max_step
+    _helpers()
     _polish_energy = jit(_polish_energy)  # the globals _polish_minimize calls, compiled before it is
     _polish_max_step = jit(_polish_max_step)
     return _polish_energy, jit(_polish_minimize)

@@ -30,11 +30,18 @@ from neuraluv.repair.kernels import polish_kernels, untangle_kernels
 __all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_energy_terms", "budget_spent"]
 
 
-#: With numba installed (the ``fast`` extra) the untangle and the polish run compiled
-#: (:mod:`neuraluv.repair.kernels`): a real asset's folds evaluate their energies some 10⁵ times, where NumPy's
-#: and SciPy's per-call costs dominate (the authored Duck's damaged layouts: 40 s → 7 s for the untangle's
-#: energy; a fold of the Duck, seed 12: 11.2 s → 4.5 s with the polish and the small regions compiled too).
-COMPILED = HAS_NUMBA
+#: Regions of at least this many faces are untangled and polished by compiled loops (numba, the ``fast`` extra,
+#: when installed; :mod:`neuraluv.repair.kernels`): a real asset's folds evaluate the energies some 10⁵ times,
+#: where NumPy's and SciPy's per-call costs dominate (the authored Duck's damaged layouts: 40 s → 7 s for the
+#: untangle; a fold of the Duck, seed 12: 11.2 → 7.3 s with the polish compiled too), while a fold of a few faces
+#: costs less in NumPy than loading numba into the process (0.6 s; 1 s with the kernels' cache). Compiling every
+#: region took that Duck fold to 4.5 s but a repair of one small fold (the mirrored Suzanne) from 5.0 to 6.4 s.
+COMPILED_FROM = 16
+
+
+def _compiled(R):
+    """Whether the region ``R`` runs compiled (numba installed and at least :data:`COMPILED_FROM` faces)."""
+    return HAS_NUMBA and len(R.T) >= COMPILED_FROM
 
 
 def _stop_at(deadline):
@@ -233,9 +240,9 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
     theta : float
         Weight of the area term (the paper's ½).
     max_outer, inner : int
-        ε-steps, and L-BFGS iterations per step (SciPy's L-BFGS-B on the NumPy energy; with numba installed,
-        :data:`COMPILED`, a compiled L-BFGS with a backtracking line search on the compiled energy: the same
-        minimisation, other iterates).
+        ε-steps, and L-BFGS iterations per step (SciPy's L-BFGS-B on the NumPy energy; for regions of at least
+        :data:`COMPILED_FROM` faces with numba installed, a compiled L-BFGS with a backtracking line search on
+        the compiled energy: the same minimisation, other iterates).
     deadline : float, optional
         ``time.perf_counter()`` value after which no further ε-step starts (``ok`` tells whether the map so far
         is fold-free).
@@ -292,7 +299,7 @@ def untangle(V, F, UV, FUV, faces, free, *, scale, theta=0.5, max_outer=40, inne
                         options={"maxiter": int(inner), "maxcor": 10, "ftol": 1e-13, "gtol": 1e-11},
                         callback=None if deadline is None else _stop_at(deadline)).x
 
-    compiled = untangle_kernels() if COMPILED else None
+    compiled = untangle_kernels() if _compiled(R) else None
     x = U0[R.free].reshape(-1).copy()
     E, _, dmin = energy(x, 1.0)
     if dmin > 0:
@@ -330,8 +337,8 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
     scale : float
         Texel density at which an isometry has ``J = I``.
     max_iter, history : int
-        L-BFGS iterations and memory (with numba installed, :data:`COMPILED`, the same iterations run compiled:
-        the same steps to rounding).
+        L-BFGS iterations and memory (for regions of at least :data:`COMPILED_FROM` faces with numba installed,
+        the same iterations run compiled: the same steps to rounding).
     deadline : float, optional
         ``time.perf_counter()`` value after which the polish stops (every accepted step is valid).
     sign : (m,) float array, optional
@@ -386,7 +393,7 @@ def polish(V, F, UV, FUV, faces, free, *, scale, max_iter=500, history=10, eps_J
         return float((R.w * s).sum() + alpha * (gap * gap).sum()), g
 
     x = U0[R.free].reshape(-1).copy()
-    if COMPILED:
+    if _compiled(R):
         return _polish_compiled(R, U0, x, max_iter, history, eps_J, eps, alpha, tol, deadline)
     E, g = energy(x)
     E0 = E
