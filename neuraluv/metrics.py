@@ -67,10 +67,10 @@ def metrics_from_jacobians(J, A):
     """
     fm = face_metrics(J)
     A = np.asarray(A, float)
-    w = A / A.sum()
     det = fm["det"]
     flipped = ~(det > 0)
-    with np.errstate(invalid="ignore", over="ignore"):
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):  # no 3D area at all: NaN, not valid
+        w = A / A.sum()
         out = {
             "esd": float(np.sum(w * fm["sd"])),
             "conformal": float(np.sum(w * fm["conformal"])),

@@ -387,3 +387,18 @@ def test_a_slim_start_the_network_cannot_improve_is_a_marked_fallback_kept_whole
     assert (c.route, c.method, len(c.islands)) == ("fallback", "slim-start", 1)
     assert "at its start (tutte+slim" in c.reason and c.metrics["flips"] == 0
     assert boundary_is_simple(c.islands[0][3], c.islands[0][2])
+
+
+def test_a_face_on_one_point_is_a_marked_fallback_not_an_endless_split():
+    # a face whose corners are one point (in a repair's rows: a palette's faces, every corner on one texel) is not
+    # disk-like and cannot be halved: splitting it again and again ended in a RecursionError (chair_model.obj under
+    # --purpose bake). It is a candidate of its own, routed to a marked fallback with finite UVs.
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 2, 2]], float)
+    F = np.array([[0, 1, 2], [3, 3, 3]])
+    from neuraluv.atlas.routing import route_charts
+
+    cands = chart_candidates(V, F)
+    assert [f.tolist() for f, _ in cands] == [[0], [1]] and "not disk-like" in cands[1][1]
+    charts = route_charts(V, F, cands, get_config("test"))
+    assert [c.route for c in charts] == ["exact", "fallback"]
+    assert all(np.isfinite(isl[3]).all() for c in charts for isl in c.islands)

@@ -137,7 +137,7 @@ def test_the_compiled_polish_takes_the_numpy_polish_steps(monkeypatch):
     s = reference_scale(V, F, UV)
     outs = {}
     for compiled in (False, True):
-        monkeypatch.setattr(un, "COMPILED", compiled)
+        monkeypatch.setattr(un, "COMPILED_FROM", 1 if compiled else 10**9)
         outs[compiled] = un.polish(V, F, UV, F, region, free, scale=s)
     (a, ia), (b, ib) = outs[False], outs[True]
     assert ia["iterations"] == ib["iterations"] > 5 and ia["converged"] == ib["converged"]
@@ -442,3 +442,35 @@ def test_a_fold_below_the_texel_tolerance_is_noted_and_left_alone(tmp_path, caps
     assert main(["repair", str(src), "-o", str(tmp_path / "fixed.obj"), "--min-defect", "0", "--device", "cpu",
                  "--report", str(tmp_path / "r.json")]) == 0
     assert json.loads((tmp_path / "r.json").read_text())["readback"]["valid"]
+
+
+def test_double_sided_faces_without_uvs_are_charted_once():
+    # every face again with the opposite winding (double-sided geometry) and no UVs: charted with their twins,
+    # every edge has four faces and the router cut the surface into a chart per face (chair_model.obj: 960
+    # charts). The front faces are charted; a back face takes its front face's rows (texture: the same texels,
+    # read mirrored, as an artist's double-sided face does) or a reflected copy of them (bake: unique, unmirrored).
+    V, F = grid(6, 4)
+    V = np.c_[V[:, :2], 0.1 * np.sin(V[:, 0])]
+    F2 = np.r_[F, F[:, ::-1]]
+    UV = np.full((len(V), 2), np.nan)
+    tex = repair_layout(V, F2, UV, F2, purpose="texture", device="cpu", preset="test")
+    assert tex.after.validation["valid"] and tex.after.validation["islands"] == 1
+    assert tex.after.validation["mirrored_shell_faces"] == len(F)
+    twins = [c for c in tex.new_charts if c["route"] == "twin"]
+    assert len(tex.new_charts) == 2 and twins[0]["faces"] == len(F)
+    bake = repair_layout(V, F2, UV, F2, purpose="bake", device="cpu", preset="test")
+    v = bake.after.validation
+    assert v["valid"] and v["islands"] == 2 and v["mirrored_islands"] == 0 and v["overlapping_pairs"] == 0
+
+
+def test_a_bake_layout_collapsed_along_lines_is_recharted_on_the_mesh():
+    # every face with two corners on one row (an island collapsed along lines, as a palette collapses a region): the
+    # rows say nothing of the surface, and re-solving the island on them ended in "SVD did not converge"; the
+    # island is charted on the mesh's vertices instead, on new rows
+    V, F = grid(8, 3)
+    V = np.c_[V[:, :2], 0.1 * np.sin(V[:, 0])]
+    FUV = F.copy()
+    FUV[:, 1] = FUV[:, 0]
+    res = repair_layout(V, F, V[:, :2] / 10 + 0.1, FUV, purpose="bake", device="cpu", preset="test")
+    assert res.after.validation["valid"] and np.isfinite(res.UV).all()
+    assert "re-solved as a chart" in [a["step"] for i in res.islands for a in i["actions"]]

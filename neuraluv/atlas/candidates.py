@@ -213,13 +213,20 @@ def _chart_is_disk(V, F, fidx):
     return ok, why, (vi, Fl, Vx, Fx)
 
 
-def _make_disks(V, F, fidx, note, out, depth=0):
-    ok, why, mesh = _chart_is_disk(V, F, fidx)
-    if ok:
-        out.append(Candidate(fidx, note, mesh))
-        return
-    for p in bisect_faces(V, F, fidx):
-        _make_disks(V, F, p, f"{note}; split (not disk-like: {why})" if depth == 0 else note, out, depth + 1)
+def _make_disks(V, F, fidx, note, out):
+    """Append to ``out`` the disk-like pieces of the faces ``fidx``: the set itself, or its halves
+    (:func:`~neuraluv.topology.bisect_faces`) in turn, depth first (a loop, not a recursion: a long strip
+    is halved many times). A single face that is not disk-like (corners on one point) is appended as it is,
+    with why in its note: the router gives it a marked fallback."""
+    todo = [(np.asarray(fidx, np.int64), note, 0)]
+    while todo:
+        f, nt, depth = todo.pop()
+        ok, why, mesh = _chart_is_disk(V, F, f)
+        if ok or len(f) < 2:
+            out.append(Candidate(f, nt, mesh) if ok else (f, f"{nt}; not disk-like: {why}"))
+            continue
+        sub = f"{nt}; split (not disk-like: {why})" if depth == 0 else nt
+        todo += [(p, sub, depth + 1) for p in reversed(bisect_faces(V, F, f))]
 
 
 def chart_candidates(V, F, *, max_cost=4.0):

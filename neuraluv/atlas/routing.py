@@ -93,14 +93,17 @@ def pca_uv(V, F):
 
 
 def per_face_uv(V, F):
-    """Each triangle laid out isometrically on its own (always flip-free).
+    """Each triangle laid out isometrically on its own (flip-free; a face without 3D area: a point).
 
     Returns
     -------
     list of (3,2) float arrays, one per face (corners in face order).
     """
     dCi, _ = local_frames(V, F)
-    C = np.linalg.inv(dCi)  # columns: c_j - c_i, c_k - c_i
+    ok = np.isfinite(dCi).all(axis=(1, 2))
+    ok[ok] = np.linalg.det(dCi[ok]) != 0
+    C = np.zeros_like(dCi)
+    C[ok] = np.linalg.inv(dCi[ok])  # columns: c_j - c_i, c_k - c_i
     return [np.array([[0.0, 0.0], C[t][:, 0], C[t][:, 1]]) for t in range(len(F))]
 
 

@@ -36,6 +36,7 @@ from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.repair.untangle import RegionEnergy, budget_spent, polish, untangle
 from neuraluv.solver.config import get_config
+from neuraluv.topology import undirected_edges, unique_rows
 
 __all__ = ["RING_SCHEDULE", "FAR_QUANTILE", "IslandGraph", "repair_cluster", "region_overlaps", "neural_region",
            "region_esd", "island_esds", "untangle_faces", "face_dets_of", "self_overlap_faces",
@@ -192,8 +193,7 @@ def _tutte_inside(UV, FUV, faces, free):
     T = FUV[faces]
     rows = np.unique(T)
     loc = np.searchsorted(rows, T)
-    e = np.concatenate([loc[:, [0, 1]], loc[:, [1, 2]], loc[:, [2, 0]]])
-    e = np.unique(np.sort(e, 1), axis=0)
+    e = unique_rows(undirected_edges(loc)[1])
     n = len(rows)
     W = sp.coo_matrix((np.ones(2 * len(e)), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])), shape=(n, n)).tocsr()
     L = sp.diags(np.asarray(W.sum(1)).ravel()) - W
@@ -527,9 +527,7 @@ def with_stretched_neighbours(Vn, F, UV, FUV, island, targets, *, factor=4.0, ri
         return targets
     conf = face_metrics(corner_jacobians(Vn, F[ok], UV, FUV[ok])[0])["conformal"]
     fin = conf[np.isfinite(conf)]
-    if not len(fin):
-        return targets
-    stretched = ok[conf > factor * max(1.0, float(np.median(fin)))]
+    stretched = ok[conf > factor * max(1.0, float(np.median(fin)))] if len(fin) else ok[:0]
     if not len(stretched):
         return targets
     own = np.zeros(len(F), np.int64)
@@ -555,7 +553,8 @@ def resolve_as_chart(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadl
 
     The last resort of a repair: every row of ``faces`` changes. Faces without 3D area are left out (their
     UVs stay, as ``check --uv`` says: no map of a chart is defined on them). When the router returns one
-    piece on the same rows they are overwritten in place; otherwise the pieces get new rows.
+    piece on the same rows they are overwritten in place; otherwise (always where a face's corners share a row: a
+    collapse, charted on the mesh's vertices) the pieces get new rows.
 
     Returns
     -------
@@ -569,9 +568,10 @@ def resolve_as_chart(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadl
     t0 = time.perf_counter()
     all_rows = np.unique(FUV[faces])
     faces = faces[face_areas(Vn, F[faces]) > DEGENERATE_3D_AREA]
-    pieces, routes = [], []
+    pieces, routes, by_vertex = [], [], False
     if len(faces):
-        T = FUV[faces]
+        by_vertex = bool((FUV[faces] == FUV[faces][:, [1, 2, 0]]).any())
+        T = (F if by_vertex else FUV)[faces]
         rows = np.unique(T)
         Fc = np.searchsorted(rows, T)
         Vc = np.zeros((len(rows), 3))
@@ -580,14 +580,14 @@ def resolve_as_chart(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadl
             routes.append({"route": ch.route, "method": ch.method, "reason": ch.reason})
             for fl, vl, Fl, uv in ch.islands:
                 new = np.asarray(uv, float) * density
-                old = UV[rows[vl]]
-                okp = np.isfinite(old).all(1)
+                old = np.full((len(vl), 2), np.nan) if by_vertex else UV[rows[vl]]
+                okp = np.isfinite(old).all(1) & np.isfinite(new).all(1)
                 if okp.sum() >= 2:
                     R, _, t = rigid_fit(new[okp], old[okp])
                     new = new @ R + t
                 pieces.append((faces[fl], new, Fl, rows[vl]))
     UVo, FUVo = UV.copy(), FUV.copy()
-    if len(pieces) == 1 and len(pieces[0][3]) == len(all_rows) and np.array_equal(np.sort(pieces[0][3]), all_rows):
+    if len(pieces) == 1 and not by_vertex and np.array_equal(np.sort(pieces[0][3]), all_rows):
         fidx, new, Fl, vrows = pieces[0]
         UVo[vrows] = new  # same rows, same faces: overwrite in place
         FUVo[fidx] = vrows[Fl]

@@ -275,7 +275,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         lost = np.flatnonzero(facts.missing | facts.non_finite)
         if len(lost):
             UVw, FUVw, new_charts = _new_charts(Vn, F, UVw, FUVw, lost, med, cfg, seed=seed, device=device,
-                                                deadline=deadline)
+                                                deadline=deadline, share=purpose == "texture")
     # 5. overlaps between islands, out of the square, new islands: move the fewest (or pack them all afresh)
     if repack:
         f5 = layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap)
@@ -435,13 +435,18 @@ def _whole_island(Vn, F, UV, FUV, faces, density, cfg, *, neural, seed, device, 
     return resolve_as_chart(Vn, F, UV, FUV, faces, density, cfg, seed=seed, device=device, deadline=deadline)
 
 
-def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
+def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline, share=True):
     """Charts for the faces ``lost`` (no usable UVs), solved by the atlas router, appended as new rows.
 
     Lost faces without 3D area have no map to solve: their three corners get one new row (a point: no UV
     area, so no overlap), as ``check --uv`` leaves such faces' UVs alone. So do lost faces whose three
     corners used one ``vt`` row (a point whatever its value: a palette collapse, e.g. one flat colour's
     faces on one texel), one new row per such row: they stay a point, not thousands of charts.
+    A lost face on the same three vertices as an earlier one (double-sided geometry: a back face of the
+    opposite winding) is not charted: with ``share`` it uses its front face's rows (stacked, mirrored: the
+    texture purpose's double-sided face), else a copy of them, reflected where the winding is reversed (a
+    unique, unmirrored island of its own). Charted with their twins, every edge of such a surface has
+    four faces, and the router cut it into a chart per face or two (chair_model.obj: 960 charts).
     """
     UV, FUV = np.asarray(UV, float), np.asarray(FUV, np.int64).copy()
     out0 = []
@@ -458,6 +463,7 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
         lost = lost[~flat]
         if not len(lost):
             return UV, FUV, out0
+    lost, twins, front = _repeated_faces(F, lost)
     vi, Fl = submesh(F, lost)
     Vl = Vn[vi]
     UVo, FUVo = UV.copy(), FUV.copy()
@@ -474,5 +480,44 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline):
             UVo = np.vstack([UVo, np.asarray(uv, float) * density])
             FUVo[lost[fl]] = Fp + base
             out.append({"faces": int(len(fl)), "route": route, "method": method, "reason": reason})
+    if len(twins):
+        UVo, FUVo = _twin_rows(F, UVo, FUVo, twins, front, share)
+        out.append({"faces": int(len(twins)), "route": "twin", "method": "front face's rows" if share else
+                    "front face's rows, copied", "reason": "a repeated face (double-sided geometry)"})
     return UVo, FUVo, out0 + out
+
+
+def _repeated_faces(F, faces):
+    """``(first, repeats, front)``: the ``faces`` on three vertices no earlier one of them uses, the others, and for
+    each of those the first face on its vertices.
+
+    Examples
+    --------
+    >>> _repeated_faces(np.array([[0, 1, 2], [1, 2, 3], [0, 2, 1]]), np.arange(3))
+    (array([0, 1]), array([2]), array([0]))
+    """
+    faces = np.asarray(faces, np.int64)
+    _, first, inv = np.unique(np.sort(F[faces], 1), axis=0, return_index=True, return_inverse=True)
+    rep = np.ones(len(faces), bool)
+    rep[first] = False
+    return faces[~rep], faces[rep], faces[first[inv.reshape(-1)][rep]]
+
+
+def _twin_rows(F, UV, FUV, twins, front, share):
+    """Rows for the faces ``twins`` from their ``front`` faces' (the corner on the same vertex): those rows
+    (``share``), else copies of them, reflected in ``u`` where the twin's winding is reversed (one copy per
+    row for each winding, so the copies keep the front faces' islands)."""
+    pos = np.argmax(F[twins][:, :, None] == F[front][:, None, :], axis=2)       # the front corner of each corner
+    rows = np.take_along_axis(FUV[front], pos, axis=1)
+    if share:
+        FUV[twins] = rows
+        return UV, FUV
+    rev = np.linalg.det(np.stack([pos == k for k in range(3)], 2).astype(float)) < 0   # an odd corner order
+    for flip in (False, True):
+        sel = rev == flip
+        if sel.any():
+            used, inv = np.unique(rows[sel], return_inverse=True)
+            FUV[twins[sel]] = len(UV) + inv.reshape(-1, 3)
+            UV = np.vstack([UV, UV[used] * ([-1.0, 1.0] if flip else 1.0)])
+    return UV, FUV
 
