@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from neuraluv.layout.facts import face_clusters
+from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent
 from neuraluv.repair.local import (
@@ -64,7 +64,9 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     fold on the seam of a stacked copy) gets copies of those rows for its own shell (same values; the other
     shell keeps the originals) and is repaired on them. A cluster no local region repairs is untangled
     with the whole shell free (locked rows kept); then, for a shell that shares no row with another, the
-    shell is re-solved as a chart and fitted back where it was (with ``neural``); a cluster that still fails
+    shell is re-solved as a chart and fitted back where it was (with ``neural``); for a shell that shares rows
+    (twin halves, a mirror seam), the same on its own copies of those rows, once every shell had its turn and
+    only if the cluster still reads as a fold (a twin's repair often mends it); a cluster that still fails
     is left as it is and reported.
     ``only``: a mask over faces, the problem faces to repair (default: all).
     Returns ``UV, FUV``.
@@ -74,6 +76,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     if only is not None:  # (m,) bool: repair only these of the problem faces
         bad = bad & only
     twin_done = np.zeros(0, np.int64)  # faces of folds repaired in twin layers, and their twins
+    deferred = []  # folds no step repaired on shells that share rows: the last resort after every shell's turn
     across_allowed = {}  # island -> the face pairs of its shells that overlap on purpose (read once)
     twin_allowed = {}  # (island, layer, rows) -> the same for a layer of twin halves
 
@@ -185,23 +188,20 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             if out is None:
                 rows = np.setdiff1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
                 out, info = untangle_faces(Vn, F, work, FUVw, shell, rows, dens, allowed, deadline=deadline)
-            if out is None and neural and not budget_spent(deadline):
-                # the last resort: the shell re-solved as a chart, fitted back where it was (every UV of the shell
-                # moves a little; the texture is re-baked); a shell that shares rows with others (twin halves, a
-                # mirror seam) on its own copies of them, so the others keep theirs
-                shared = np.intersect1d(np.unique(FUVw[shell]), np.flatnonzero(locked))
-                W, FU = _own_copies(work, FUVw, shell, shared) if len(shared) else (work, FUVw)
-                out_uv, out_fuv, info = resolve_as_chart(Vn, F, W, FU, shell, dens, cfg, seed=seed,
-                                                         device=device, deadline=deadline)
-                if (face_dets_of(Vn, F, out_uv, out_fuv, shell[~facts.degenerate3d[shell]]) > 0).all():
+            shared = locked[np.unique(FUVw[shell])].any()
+            if out is None and neural and not budget_spent(deadline) and not shared:
+                # the last resort of a shell of its own: re-solved as a chart, fitted back where it was (every
+                # UV of the shell moves a little; the texture is re-baked)
+                out_uv, out_fuv, info = _resolved(Vn, F, work, FUVw, shell, np.zeros(0, np.int64), cl, dens, cfg, kw)
+                if out_uv is not None:
                     work, FUVw = out_uv, out_fuv
-                    actions[i].append({"step": info["step"], "cluster_faces": int(len(cl)), "time": info["time"],
-                                       "shell": int(k), "pieces": info["pieces"],
-                                       **({"split_rows": int(len(shared))} if len(shared) else {})})
+                    actions[i].append({**info, "cluster_faces": int(len(cl)), "shell": int(k)})
                     break  # the whole shell is new: its other clusters went with it
             if out is None:
                 actions[i].append({"step": "left folded", "cluster_faces": int(len(cl)),
                                    "reason": "no local region and no untangle of the whole shell was valid"})
+                if neural and shared:  # the last resort once every shell had its turn (a twin's may repair it)
+                    deferred.append((k, i, cl, dens, kw, actions[i][-1]))
                 continue
             work = out
             actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows",
@@ -209,7 +209,39 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                               | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
                                  **({"mirrored_shell": True} if flip else {})})
         UVw = work * np.array([-1.0, 1.0]) if flip else work
+    now = None
+    for k, i, cl, dens, kw, act in deferred:
+        # still a fold, read as the result will be read (a twin's repair may have mended it, or made it a sheet of
+        # its own), after every shell's repair: its shell re-solved as a chart on its own copies of the rows it
+        # shares (twin halves, a mirror seam), so that the other shells keep theirs
+        if budget_spent(deadline):
+            break
+        if now is None:
+            now = layout_intent(layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap))
+        if not (now.fold[cl] | now.degenerate[cl]).any():
+            continue
+        sgn = np.array([-1.0, 1.0]) if it.shell_sign[k] < 0 else np.ones(2)
+        shell = it.shell_faces(k)
+        outside = np.setdiff1d(facts.island_faces(i), shell, assume_unique=True)
+        shared = np.intersect1d(np.unique(FUVw[shell]), np.unique(FUVw[outside]))
+        out_uv, out_fuv, info = _resolved(Vn, F, UVw * sgn, FUVw, shell, shared, cl, dens, cfg, kw)
+        if out_uv is not None:
+            UVw, FUVw, now = out_uv * sgn, out_fuv, None
+            act.clear()
+            act.update({**info, "cluster_faces": int(len(cl)), "shell": int(k), "split_rows": int(len(shared))})
     return UVw, FUVw
+
+
+def _resolved(Vn, F, UV, FUV, shell, shared, cl, dens, cfg, kw):
+    """The last resort for a shell: re-solved as a chart (:func:`~neuraluv.repair.local.resolve_as_chart`), on its
+    own copies of the rows ``shared`` with other shells; ``(UV, FUV, action)``, or ``(None, None, None)`` where a
+    face of the fold ``cl`` is still not valid."""
+    W, FU = _own_copies(UV, FUV, shell, shared) if len(shared) else (UV, FUV)
+    out_uv, out_fuv, info = resolve_as_chart(Vn, F, W, FU, shell, dens, cfg, seed=kw["seed"], device=kw["device"],
+                                             deadline=kw["deadline"])
+    if not (face_dets_of(Vn, F, out_uv, out_fuv, cl) > 0).all():
+        return None, None, None
+    return out_uv, out_fuv, {"step": info["step"], "time": info["time"], "pieces": info["pieces"]}
 
 
 def _own_copies(UV, FUV, shell, rows):
