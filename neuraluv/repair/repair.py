@@ -53,7 +53,7 @@ from neuraluv.repair.local import (
 )
 from neuraluv.repair.separate import SHRINK_SCALES, repack_all, separate
 from neuraluv.repair.shells import repair_shells
-from neuraluv.repair.untangle import COMPILED_FROM, budget_spent, compiled_regions
+from neuraluv.repair.untangle import budget_spent
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import torch_threads
 from neuraluv.topology import submesh
@@ -259,9 +259,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     actions = {i: [] for i in range(facts.n_islands)}
     movers_pref = set()  # islands (input labels) already changed: first choice when something must move
 
-    v = before.validation
-    many = v.get("folded_faces", v.get("flips", 0)) + v.get("degenerate_faces", v.get("zero_area_faces", 0))
-    with torch_threads(threads), compiled_regions(many >= COMPILED_FROM):  # many faces: worth loading numba
+    with torch_threads(threads):
         if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
             UV1, FUV1 = repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)

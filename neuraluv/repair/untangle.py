@@ -17,9 +17,7 @@ their loops run compiled (:mod:`neuraluv.repair.kernels`).
 """
 from __future__ import annotations
 
-import contextvars
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,8 +27,7 @@ from neuraluv.jacobian import local_frames
 from neuraluv.lazy import HAS_NUMBA
 from neuraluv.repair.kernels import polish_kernels, untangle_kernels
 
-__all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_energy_terms", "budget_spent",
-           "compiled_regions"]
+__all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_energy_terms", "budget_spent"]
 
 
 #: Regions of at least this many faces are untangled and polished by compiled loops (numba, the ``fast`` extra,
@@ -41,26 +38,10 @@ __all__ = ["RegionEnergy", "untangle", "untangle_energy", "polish", "stable_ener
 #: region took that Duck fold to 4.5 s but a repair of one small fold (the mirrored Suzanne) from 5.0 to 6.4 s.
 COMPILED_FROM = 16
 
-_EVERY_REGION = contextvars.ContextVar("neuraluv_compile_every_region", default=False)
-
-
-@contextmanager
-def compiled_regions(on=True):
-    """Within the block, with ``on``, every region runs compiled (numba installed), whatever its size: for a
-    layout with many faces to repair (:func:`~neuraluv.repair.repair.repair_layout`: at least
-    :data:`COMPILED_FROM`), which loads numba anyway, its small regions cost 0.8 ms compiled against 12 ms
-    in SciPy (a fold of the Duck: 4.1 → 1.6 s)."""
-    token = _EVERY_REGION.set(bool(on))
-    try:
-        yield
-    finally:
-        _EVERY_REGION.reset(token)
-
 
 def _compiled(R):
-    """Whether the region ``R`` runs compiled: numba installed, and at least :data:`COMPILED_FROM` faces (any
-    number inside :func:`compiled_regions`)."""
-    return HAS_NUMBA and (len(R.T) >= COMPILED_FROM or _EVERY_REGION.get())
+    """Whether the region ``R`` runs compiled (numba installed and at least :data:`COMPILED_FROM` faces)."""
+    return HAS_NUMBA and len(R.T) >= COMPILED_FROM
 
 
 def _stop_at(deadline):
