@@ -384,20 +384,24 @@ def test_a_fold_across_a_vertex_split_keeps_the_split_closed():
     assert np.array_equal(res.FUV, F2)
 
 
-def test_a_fold_on_rows_that_stacked_copies_share_is_repaired_locally():
-    # an array modifier's copies share their vt rows (they read the same texels): a row pushed over its neighbours
-    # folds every copy at once. Only those faces are folds (the copies lying on each other are intent), and
-    # the repair moves the row back without re-solving or cutting anything.
-    w, h = 13, 9
+def array_copies(w, h, k):
+    """``V, F, UV, FUV``: ``k`` copies of a ``w`` x ``h`` grid stacked in 3D (an array modifier), every copy on the
+    same ``vt`` rows."""
     x, y = np.meshgrid(np.arange(float(w)), np.arange(float(h)))
     P = np.c_[x.ravel(), y.ravel()]
     q = np.array([[i + w * j, i + 1 + w * j, i + 1 + w * (j + 1), i + w * (j + 1)] for j in range(h - 1) for i in range(w - 1)])
     T = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
-    k = 3
     V = np.concatenate([np.c_[P, np.full(len(P), 2.0 * c) + 0.1 * np.sin(P[:, 0])] for c in range(k)])
     F = np.concatenate([T + c * len(P) for c in range(k)])
-    FUV = np.tile(T, (k, 1))
-    UV = P / 16.0 + 0.1
+    return V, F, P / 16.0 + 0.1, np.tile(T, (k, 1))
+
+
+def test_a_fold_on_rows_that_stacked_copies_share_is_repaired_locally():
+    # an array modifier's copies share their vt rows (they read the same texels): a row pushed over its neighbours
+    # folds every copy at once. Only those faces are folds (the copies lying on each other are intent), and
+    # the repair moves the row back without re-solving or cutting anything.
+    w = 13
+    V, F, UV, FUV = array_copies(w, 9, 3)
     bad = UV.copy()
     bad[w * 4 + 6] += [0.1, 0.0]  # an inner row pushed past its neighbours
     f = layout_facts(V, F, bad, FUV)
@@ -408,6 +412,23 @@ def test_a_fold_on_rows_that_stacked_copies_share_is_repaired_locally():
     assert res.after.ok and res.after.validation["valid"]
     assert [a["step"] for i in res.islands for a in i["actions"]] == ["untangle+polish"]
     assert 1.0 - res.changed_faces.mean() >= 0.8
+
+
+def test_a_bake_of_stacked_copies_gives_each_surface_rows_of_its_own():
+    # an array modifier's copies share one island's vt rows: one island overlapping itself, which no untangle of
+    # that island can mend (its faces are not folded). Under a bake's rules each copy gets rows of its own and is
+    # moved into free space; the largest copy keeps the input's rows and values.
+    k = 3
+    V, F, UV, FUV = array_copies(6, 4, k)
+    assert diagnose_layout(V, F, UV, FUV, purpose="texture").ok
+    before = diagnose_layout(V, F, UV, FUV, purpose="bake")
+    assert not before.ok and before.islands[0]["self_overlap_pairs"] > 0
+    res = repair_layout(V, F, UV, FUV, "test", purpose="bake", device="cpu")
+    v = res.after.validation
+    assert res.after.ok and v["valid"] and v["self_overlapping_islands"] == 0 and v["overlapping_pairs"] == 0
+    assert res.after.validation["islands"] == k
+    assert res.islands[0]["actions"][0] == {"step": "own rows per surface", "surfaces": k, "rows_added": (k - 1) * len(UV)}
+    assert len(res.UV) == k * len(UV) and (res.UV[res.FUV] >= 0).all() and (res.UV[res.FUV] <= 1).all()
 
 
 def test_a_fold_on_the_seam_of_mirrored_halves_is_repaired_across_them():

@@ -9,7 +9,9 @@ and fixes each problem with the smallest change that works, in this order:
    ring by ring, then the neural solver with the ring pinned); only if that fails is
    the whole island untangled, and only if that fails is it re-solved as a chart by
    the atlas router (neural, or a marked fallback) and put back where it was;
-3. an island that **overlaps itself** is untangled around the overlap, else re-solved;
+3. an island that **overlaps itself** is untangled around the overlap, else re-solved; under a bake's
+   rules, where it overlaps itself because several surfaces share its rows (stacked copies), each
+   surface but the largest first gets copies of those rows, an island of its own for step 5;
 4. faces with **missing or non-finite UVs** get new charts, solved like ``atlas``
    does, at the layout's median texel density;
 5. islands that **overlap each other**, lie **outside [0,1]²**, or are new are
@@ -38,7 +40,7 @@ from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
 from neuraluv.layout.facts import DEGENERATE_3D_AREA, coincident_rows, defect_area, face_clusters, layout_facts
 from neuraluv.layout.purpose import check_purpose, layout_intent
-from neuraluv.meshfix import face_areas
+from neuraluv.meshfix import face_areas, weld_ids
 from neuraluv.plot import plot_repair
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
 from neuraluv.repair.local import (
@@ -51,12 +53,12 @@ from neuraluv.repair.local import (
     untangle_faces,
     with_stretched_neighbours,
 )
-from neuraluv.repair.separate import SHRINK_SCALES, repack_all, separate
-from neuraluv.repair.shells import repair_shells
+from neuraluv.repair.separate import SHRINK_SCALES, input_islands, repack_all, separate
+from neuraluv.repair.shells import _own_copies, repair_shells
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import torch_threads
-from neuraluv.topology import submesh
+from neuraluv.topology import submesh, vertex_components
 
 __all__ = ["RepairResult", "repair_layout", "SHRINK_SCALES"]
 
@@ -268,8 +270,15 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                                          device=device, deadline=deadline, neural=neural)
             UVw, FUVw = UV1, FUV1
         else:
-            UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, seed=seed,
+            UVw, FUVw, f1 = _own_rows_per_surface(Vn, F, UVw, FUVw, facts, actions, movers_pref)
+            acts1, pref1 = {j: [] for j in range(f1.n_islands)}, set()
+            UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, f1, acts1, pref1, med, cfg, seed=seed,
                                         device=device, deadline=deadline, neural=neural)
+            origin = input_islands(facts, f1)
+            for j, a in acts1.items():
+                if origin[j] >= 0:
+                    actions[origin[j]].extend(a)
+            movers_pref |= {int(origin[j]) for j in pref1 if origin[j] >= 0}
         # 4. faces without usable UVs: new charts
         new_charts = []
         lost = np.flatnonzero(facts.missing | facts.non_finite)
@@ -281,11 +290,9 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
         f5 = layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap)
         UVw, FUVw = repack_all(Vn, F, UVw, FUVw, f5, padding, resolution, tight=True)
         placements, repacked = {}, True
-        for j in range(f5.n_islands):
-            lab0 = facts.label[f5.island_faces(j)]
-            lab0 = lab0[lab0 >= 0]
-            if len(lab0):
-                placements.setdefault(int(np.bincount(lab0).argmax()), {"step": "repacked (a layout of its own)"})
+        for i in input_islands(facts, f5):
+            if i >= 0:
+                placements.setdefault(int(i), {"step": "repacked (a layout of its own)"})
     else:
         UVw, FUVw, placements, repacked = separate(Vn, F, UVw, FUVw, facts, movers_pref, resolution, padding,
                                                     only_new=purpose == "texture", deadline=deadline)
@@ -342,11 +349,9 @@ def _second_pass(Vn, F, UVw, FUVw, facts, actions, med, cfg, unweld, **kw):
         return UVw, FUVw
     acts = {j: [] for j in range(f2.n_islands)}
     UVw, FUVw = repair_shells(Vn, F, UVw, FUVw, f2, acts, med, cfg, only=new, **kw)
-    for j, a in acts.items():
-        lab = facts.label[f2.island_faces(j)]
-        lab = lab[lab >= 0]
-        if a and len(lab):
-            actions[int(np.bincount(lab).argmax())].extend({**x, "pass": 2} for x in a)
+    for j, i in enumerate(input_islands(facts, f2)):
+        if acts[j] and i >= 0:
+            actions[int(i)].extend({**x, "pass": 2} for x in acts[j])
     return UVw, FUVw
 
 
@@ -412,6 +417,39 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
             actions[i].append(act)
             movers_pref.add(i)
     return UVw, FUVw
+
+
+def _own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref):
+    """Under a bake's rules each surface has texels of its own: where an island overlaps itself because faces of
+    different surfaces (3D components, positions welded) share its ``vt`` rows (an array modifier's stacked
+    copies, identical parts laid on one texture), every surface of it but the one with the most faces gets
+    copies of the rows it shares, and becomes an island of its own that step 5 moves into free space.
+
+    Returns ``UV, FUV, facts`` (``facts`` itself where nothing was shared); ``actions`` and ``movers_pref`` (input
+    islands) are filled in.
+    """
+    ii, jj, _ = facts.overlaps()
+    if not len(ii):
+        return UV, FUV, facts
+    W = weld_ids(Vn)
+    comp = vertex_components(int(W.max()) + 1, W[F])[1][W[F[:, 0]]]
+    hit = (facts.label[ii] == facts.label[jj]) & (comp[ii] != comp[jj])
+    for i in np.unique(facts.label[ii[hit]]):
+        fi = facts.island_faces(i)
+        c = comp[fi]
+        keep = np.bincount(c).argmax()
+        copies = rows = 0
+        for k in np.unique(c[c != keep]):
+            shared = np.intersect1d(FUV[fi[c == k]], FUV[fi[c != k]])
+            if len(shared):
+                UV, FUV = _own_copies(UV, FUV, fi[c == k], shared)
+                copies, rows = copies + 1, rows + len(shared)
+        if copies:
+            actions[int(i)].append({"step": "own rows per surface", "surfaces": copies + 1, "rows_added": rows})
+            movers_pref.add(int(i))
+    if not hit.any():
+        return UV, FUV, facts
+    return UV, FUV, layout_facts(Vn, F, UV, FUV, normalized=True, min_overlap=facts.min_overlap)
 
 
 def _island_base(isl):

@@ -17,10 +17,32 @@ from neuraluv.layout.pack import shelf_pack
 from neuraluv.layout.place import FreeSpace
 from neuraluv.layout.rigid import rotate_to_min_box
 
-__all__ = ["SHRINK_SCALES", "separate", "repack_all"]
+__all__ = ["SHRINK_SCALES", "input_islands", "separate", "repack_all"]
 
 #: Uniform scales tried, in order, for an island that fits nowhere at its own size.
 SHRINK_SCALES = (1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3)
+
+
+def input_islands(facts0, facts):
+    """The island of ``facts0`` (the input's) holding most faces of each island of ``facts``; -1 for an island
+    whose faces had no input island (a new chart).
+
+    Examples
+    --------
+    >>> from neuraluv.layout.facts import layout_facts
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]]); F = np.array([[0, 1, 2], [1, 3, 2]])
+    >>> f0 = layout_facts(V, F, V[:, :2], F)
+    >>> f1 = layout_facts(V, F, np.vstack([V[:, :2], V[:, :2]]), np.array([[0, 1, 2], [5, 7, 6]]))
+    >>> f0.n_islands, input_islands(f0, f1).tolist()
+    (1, [0, 0])
+    """
+    origin = -np.ones(facts.n_islands, np.int64)
+    for j in range(facts.n_islands):
+        lab = facts0.label[facts.island_faces(j)]
+        lab = lab[lab >= 0]
+        if len(lab):
+            origin[j] = np.bincount(lab).argmax()
+    return origin
 
 
 def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=False, deadline=None):
@@ -35,14 +57,7 @@ def separate(Vn, F, UV, FUV, facts0, prefer, resolution, padding, *, only_new=Fa
     repacked``.
     """
     f = layout_facts(Vn, F, UV, FUV, normalized=True, min_overlap=facts0.min_overlap)
-    # map current islands to input islands (-1: new)
-    origin = -np.ones(f.n_islands, np.int64)
-    for j in range(f.n_islands):
-        fj = f.island_faces(j)
-        lab0 = facts0.label[fj]
-        lab0 = lab0[lab0 >= 0]
-        if len(lab0):
-            origin[j] = np.bincount(lab0).argmax()
+    origin = input_islands(facts0, f)  # current islands -> input islands (-1: new)
     if only_new:  # the user's islands stay where they are: their overlaps do not matter here
         edges = set()
     else:
