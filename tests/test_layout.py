@@ -182,6 +182,26 @@ def test_page_spot_is_the_rules_best_free_spot(scan, monkeypatch):
         assert page.spot(mask, lo, hi, box=(W, H)) == want
 
 
+def test_a_mask_with_more_room_than_the_page_fits_nowhere_and_the_others_are_correlated():
+    # room() is the largest free square's half side; place() skips the correlation of a mask whose room is larger
+    # than the page's. That must never skip a mask that fits somewhere: brute force on random pages and masks.
+    from neuraluv.layout.raster import Page, room
+
+    rng = np.random.default_rng(7)
+    skipped = 0
+    for trial in range(200):
+        taken = rng.random((24, 24)) < rng.choice([0.01, 0.05, 0.2, 0.4])
+        mask = rng.random((rng.integers(1, 12), rng.integers(1, 12))) < rng.choice([0.5, 1.0])
+        page = Page(taken.shape)
+        page.add(taken, 0, 0)
+        fits = page.free(mask).any()
+        assert page.room() == room(~taken)
+        if room(mask) > page.room():
+            skipped += 1
+            assert not fits
+    assert skipped >= 5  # the bound does skip
+
+
 def test_triangles_union_from_boundary_loops_is_geos_union():
     import shapely
 

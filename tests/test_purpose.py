@@ -431,6 +431,19 @@ def test_a_bake_of_stacked_copies_gives_each_surface_rows_of_its_own():
     assert len(res.UV) == k * len(UV) and (res.UV[res.FUV] >= 0).all() and (res.UV[res.FUV] <= 1).all()
 
 
+def test_a_bake_of_mirrored_halves_reflects_one_half_on_rows_of_its_own():
+    # a mirror modifier's halves share the mirror line's rows, one half reversed: under a bake's rules one half
+    # gets copies of the shared rows, is reflected back and moved; the other keeps every row bit for bit
+    # (before, the island was re-solved whole as a new chart).
+    V, F, UV = mirrored_strip()
+    res = repair_layout(V, F, UV, F, "test", purpose="bake", device="cpu")
+    v = res.after.validation
+    assert res.after.ok and v["valid"] and v["mirrored_islands"] == 0 and v["islands"] == 2
+    steps = [a["step"] for a in res.islands[0]["actions"]]
+    assert steps[:2] == ["own rows per surface", "reflected"] and "re-solved as a chart" not in steps
+    assert 0.45 <= 1.0 - res.changed_faces.mean() <= 0.55  # one half as it was
+
+
 def test_a_fold_on_the_seam_of_mirrored_halves_is_repaired_across_them():
     # the halves of a mirror modifier share the mirror line's rows: a row of that line pushed along it folds a
     # face of each half. Both halves' rows are freed, each face kept in its own half's orientation; the seam

@@ -21,7 +21,7 @@ import numpy as np
 import shapely
 
 from neuraluv.layout.overlap import outline_rings, triangles_union
-from neuraluv.layout.raster import Page, dilate, rasterise
+from neuraluv.layout.raster import Page, dilate, rasterise, room
 from neuraluv.layout.rigid import quarter_turn
 
 __all__ = ["Placement", "FreeSpace"]
@@ -143,6 +143,8 @@ class FreeSpace:
                 if q.max() > 1.0 - 2 * pad:
                     continue
                 mask, lo = rasterise(outline_rings(triangles_union(q, T)[0]), g)
+                if room(mask) > self.page.room():  # a square of it fits nowhere: no correlation needed
+                    continue
                 free = np.argwhere(self.page.free(mask))  # (row, col) of the mask's cell (0, 0)
                 if not len(free):
                     continue

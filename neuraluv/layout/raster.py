@@ -26,7 +26,7 @@ from scipy import fft
 
 from neuraluv.lazy import HAS_NUMBA, jit
 
-__all__ = ["rasterise", "disk", "dilate", "Page", "SCAN"]
+__all__ = ["rasterise", "disk", "dilate", "room", "Page", "SCAN"]
 
 #: :meth:`Page.spot` scans the page's free runs with a numba kernel (when numba is installed; imported and
 #: compiled on first use) instead of reading the spot off :meth:`Page.free`'s FFT correlation: the same
@@ -123,6 +123,21 @@ def dilate(mask, r, *, grow=True):
     return out
 
 
+def room(cells):
+    """The largest chessboard distance from a true cell of ``cells`` to a false cell or the border (0: none).
+
+    Examples
+    --------
+    >>> room(np.ones((5, 5), bool)), room(np.ones((5, 4), bool)), room(np.zeros((3, 3), bool))
+    (3, 2, 0)
+    """
+    from scipy import ndimage
+
+    if not cells.any():
+        return 0
+    return int(ndimage.distance_transform_cdt(np.pad(cells, 1), metric="chessboard").max())
+
+
 class Page:
     """A page of cells, some taken, and where a mask still fits on it.
 
@@ -149,6 +164,7 @@ class Page:
         self.taken = np.zeros(self.shape, self.dtype)
         self._fshape = tuple(fft.next_fast_len(s, real=True) for s in self.shape)
         self._spec = None
+        self._room = None  # the largest free square's half side (chessboard distance), kept until the next add
         self.empty = True
         self._runs = None  # Page.spot's runs of free (or taken) cells rightwards; rows from _stale on outdated
         self._stale = [0, self.shape[0]]
@@ -169,6 +185,16 @@ class Page:
         hit = fft.irfft2(spec, self._fshape, overwrite_x=True)
         return hit[:H - h + 1, :W - w + 1] < 0.5
 
+    def room(self):
+        """The half side ``d`` of the largest square of free cells, ``2d - 1`` cells (chessboard distance).
+
+        A mask whose :func:`room` is larger fits nowhere on the page (a necessary condition, never a guess):
+        a caller can skip its correlation.
+        """
+        if self._room is None:
+            self._room = room(self.taken < 0.5)
+        return self._room
+
     def add(self, mask, y, x):
         """Mark ``mask`` taken with its cell ``(0, 0)`` at ``(y, x)`` (clipped to the page)."""
         h, w = mask.shape
@@ -178,7 +204,7 @@ class Page:
             return
         sub = mask[y0 - int(y):y1 - int(y), x0 - int(x):x1 - int(x)]
         self.taken[y0:y1, x0:x1] = np.maximum(self.taken[y0:y1, x0:x1], sub)
-        self._spec = None
+        self._spec = self._room = None
         self._stale = [min(self._stale[0], y0), max(self._stale[1], y1)]
         self.empty = self.empty and not sub.any()
 

@@ -420,23 +420,35 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
 
 
 def _own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref):
-    """Under a bake's rules each surface has texels of its own: where an island overlaps itself because faces of
-    different surfaces (3D components, positions welded) share its ``vt`` rows (an array modifier's stacked
-    copies, identical parts laid on one texture), every surface of it but the one with the most faces gets
-    copies of the rows it shares, and becomes an island of its own that step 5 moves into free space.
+    """Under a bake's rules each surface has texels of its own. An island can hold several surfaces on shared
+    ``vt`` rows: 3D components (positions welded; an array modifier's stacked copies, identical parts laid on one
+    texture) and shells of opposite orientation (a mirror modifier's halves, which share the mirror line's rows;
+    read by :func:`~neuraluv.layout.purpose.layout_intent`, so a fold stays with the shell it lies in). Where
+    those surfaces overlap or mirror each other, no untangle of the island can mend it: every surface but the
+    one with the most faces gets copies of the rows it shares, and becomes an island of its own, which step 1
+    reflects back if it is mirrored and step 5 moves into free space.
 
-    Returns ``UV, FUV, facts`` (``facts`` itself where nothing was shared); ``actions`` and ``movers_pref`` (input
+    Returns ``UV, FUV, facts`` (``facts`` itself where nothing was split); ``actions`` and ``movers_pref`` (input
     islands) are filled in.
     """
-    ii, jj, _ = facts.overlaps()
-    if not len(ii):
+    lab = facts.label
+    if not facts.n_islands:
         return UV, FUV, facts
+    it = layout_intent(facts)
+    reversed_ = (it.shell >= 0) & (it.shell_sign[np.maximum(it.shell, 0)] < 0) if len(it.shell_sign) else \
+        np.zeros(len(F), bool)
     W = weld_ids(Vn)
-    comp = vertex_components(int(W.max()) + 1, W[F])[1][W[F[:, 0]]]
-    hit = (facts.label[ii] == facts.label[jj]) & (comp[ii] != comp[jj])
-    for i in np.unique(facts.label[ii[hit]]):
+    key = 2 * vertex_components(int(W.max()) + 1, W[F])[1][W[F[:, 0]]] + reversed_
+    ii, jj, _ = facts.overlaps()
+    hit = set(lab[ii[(lab[ii] == lab[jj]) & (key[ii] != key[jj])]].tolist())
+    on = lab >= 0
+    both = (np.bincount(lab[on & reversed_], minlength=facts.n_islands) > 0) & \
+        (np.bincount(lab[on & ~reversed_], minlength=facts.n_islands) > 0)
+    hit |= set(np.flatnonzero(both).tolist())
+    split = False
+    for i in sorted(hit):
         fi = facts.island_faces(i)
-        c = comp[fi]
+        c = key[fi]
         keep = np.bincount(c).argmax()
         copies = rows = 0
         for k in np.unique(c[c != keep]):
@@ -447,7 +459,8 @@ def _own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref):
         if copies:
             actions[int(i)].append({"step": "own rows per surface", "surfaces": copies + 1, "rows_added": rows})
             movers_pref.add(int(i))
-    if not hit.any():
+            split = True
+    if not split:
         return UV, FUV, facts
     return UV, FUV, layout_facts(Vn, F, UV, FUV, normalized=True, min_overlap=facts.min_overlap)
 
