@@ -556,19 +556,35 @@ def _repeated_faces(F, faces):
 
 def _twin_rows(F, UV, FUV, twins, front, share):
     """Rows for the faces ``twins`` from their ``front`` faces' (the corner on the same vertex): those rows
-    (``share``), else copies of them, reflected in ``u`` where the twin's winding is reversed (one copy per
-    row for each winding, so the copies keep the front faces' islands)."""
+    (``share``), else copies of them, reflected in ``u`` where the twin's winding is reversed. One copy per row
+    for each winding and each repeat of a front face in that winding (the second face of one winding on the
+    same vertices gets a second copy), so the copies keep the front faces' islands and no two faces share texels.
+
+    Examples
+    --------
+    >>> F = np.array([[0, 1, 2], [0, 2, 1], [1, 2, 0], [2, 0, 1]])  # a face, its back face, two repeats of it
+    >>> UV, FUV = _twin_rows(F, np.eye(3)[:, :2], np.array([[0, 1, 2]] * 4), np.array([1, 2, 3]), np.zeros(3, int),
+    ...                      share=False)
+    >>> FUV.tolist(), UV[3:6, 0].tolist()
+    ([[0, 1, 2], [9, 11, 10], [4, 5, 3], [8, 6, 7]], [1.0, 0.0, 0.0])
+    """
     pos = np.argmax(F[twins][:, :, None] == F[front][:, None, :], axis=2)       # the front corner of each corner
     rows = np.take_along_axis(FUV[front], pos, axis=1)
     if share:
         FUV[twins] = rows
         return UV, FUV
     rev = np.linalg.det(np.stack([pos == k for k in range(3)], 2).astype(float)) < 0   # an odd corner order
+    key = 2 * np.asarray(front, np.int64) + rev
+    order = np.argsort(key, kind="stable")
+    first = np.r_[0, np.flatnonzero(np.diff(key[order])) + 1]
+    repeat = np.empty(len(key), np.int64)
+    repeat[order] = np.arange(len(key)) - np.repeat(first, np.diff(np.r_[first, len(key)]))
     for flip in (False, True):
-        sel = rev == flip
-        if sel.any():
-            used, inv = np.unique(rows[sel], return_inverse=True)
-            FUV[twins[sel]] = len(UV) + inv.reshape(-1, 3)
-            UV = np.vstack([UV, UV[used] * ([-1.0, 1.0] if flip else 1.0)])
+        for r in range(int(repeat.max()) + 1 if len(repeat) else 0):
+            sel = (rev == flip) & (repeat == r)
+            if sel.any():
+                used, inv = np.unique(rows[sel], return_inverse=True)
+                FUV[twins[sel]] = len(UV) + inv.reshape(-1, 3)
+                UV = np.vstack([UV, UV[used] * ([-1.0, 1.0] if flip else 1.0)])
     return UV, FUV
 
