@@ -444,6 +444,19 @@ def test_a_bake_of_mirrored_halves_reflects_one_half_on_rows_of_its_own():
     assert 0.45 <= 1.0 - res.changed_faces.mean() <= 0.55  # one half as it was
 
 
+def test_a_bake_charts_a_palette_collapse_afresh_and_keeps_the_other_island():
+    # a flat-coloured part collapsed to one texel has no texels of its own to bake into: it gets new charts (as
+    # faces without UVs do) instead of an untangle or a re-solve from one point; the other island stays as it was.
+    V, F, UV, FUV, _ = intent_layouts()["palette"]
+    _, _, _, _, a, b = two_islands()
+    res = repair_layout(V, F, UV, FUV, "test", purpose="bake", device="cpu")
+    v = res.after.validation
+    assert res.after.ok and v["valid"] and v["flips"] == 0 and v["overlapping_pairs"] == 0
+    pal = [i for i in res.islands if i["faces"] == len(b) and i["degenerate"] == len(b)]
+    assert len(pal) == 1 and pal[0]["actions"][0]["step"] == "new charts" and res.new_charts
+    assert not res.changed_faces[a].any()
+
+
 def test_a_fold_on_the_seam_of_mirrored_halves_is_repaired_across_them():
     # the halves of a mirror modifier share the mirror line's rows: a row of that line pushed along it folds a
     # face of each half. Both halves' rows are freed, each face kept in its own half's orientation; the seam

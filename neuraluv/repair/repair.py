@@ -13,7 +13,8 @@ and fixes each problem with the smallest change that works, in this order:
    rules, where it overlaps itself because several surfaces share its rows (stacked copies), each
    surface but the largest first gets copies of those rows, an island of its own for step 5;
 4. faces with **missing or non-finite UVs** get new charts, solved like ``atlas``
-   does, at the layout's median texel density;
+   does, at the layout's median texel density; so, under a bake's rules, do the
+   faces of an island with no UV area (a palette collapse);
 5. islands that **overlap each other**, lie **outside [0,1]²**, or are new are
    moved into free space (:class:`~neuraluv.layout.place.FreeSpace`): only the
    islands involved, translated and if needed turned by quarter turns, never
@@ -270,7 +271,13 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                                          device=device, deadline=deadline, neural=neural)
             UVw, FUVw = UV1, FUV1
         else:
-            UVw, FUVw, f1 = _own_rows_per_surface(Vn, F, UVw, FUVw, facts, actions, movers_pref)
+            f1 = facts
+            collapsed = _collapsed_faces(facts, actions)
+            if collapsed.any():  # no texels of their own to repair: new charts (step 4), like faces without UVs
+                FUVw = FUVw.copy()
+                FUVw[collapsed] = -1
+                f1 = layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap)
+            UVw, FUVw, f1 = _own_rows_per_surface(Vn, F, UVw, FUVw, f1, actions, movers_pref)
             acts1, pref1 = {j: [] for j in range(f1.n_islands)}, set()
             UVw, FUVw = _repair_islands(Vn, F, UVw, FUVw, f1, acts1, pref1, med, cfg, seed=seed,
                                         device=device, deadline=deadline, neural=neural)
@@ -281,7 +288,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
             movers_pref |= {int(origin[j]) for j in pref1 if origin[j] >= 0}
         # 4. faces without usable UVs: new charts
         new_charts = []
-        lost = np.flatnonzero(facts.missing | facts.non_finite)
+        lost = np.flatnonzero(facts.missing | facts.non_finite | (purpose != "texture") & (FUVw < 0).any(1))
         if len(lost):
             UVw, FUVw, new_charts = _new_charts(Vn, F, UVw, FUVw, lost, med, cfg, seed=seed, device=device,
                                                 deadline=deadline, share=purpose == "texture")
@@ -417,6 +424,25 @@ def _repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, 
             actions[i].append(act)
             movers_pref.add(i)
     return UVw, FUVw
+
+
+def _collapsed_faces(facts, actions):
+    """(m,) bool: the faces of islands with no UV area (every face with 3D area degenerate in UV: a palette
+    collapse to a point or along a line). A bake gives them texels of their own: new charts, as for faces
+    without UVs; untangling or re-solving them as they are searches a map from one point. Each such input
+    island's action is recorded in ``actions``."""
+    out = np.zeros(len(facts.F), bool)
+    if not facts.n_islands:
+        return out
+    flat = layout_intent(facts).face_class == 0  # UV-degenerate, as check reads it
+    for i in range(facts.n_islands):
+        fi = facts.island_faces(i)
+        solid = fi[~facts.degenerate3d[fi]]
+        if len(solid) and flat[solid].all():
+            out[fi] = True
+            actions[i].append({"step": "new charts", "faces": int(len(fi)),
+                               "why": "no UV area (collapsed to a point or a line): no texels of its own"})
+    return out
 
 
 def _own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref):
