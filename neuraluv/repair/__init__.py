@@ -10,6 +10,7 @@ are NumPy/SciPy/shapely and do not import torch.
                repair does; the intentional features it keeps
 ``untangle``   Garanzha et al. 2021 untangling; flip-free polish of the stable objective
 ``local``      fold repair in the smallest ring-grown region that works
+``region``     what a repaired region is measured by: overlaps, distortion, det J
 ``shells``     the texture purpose: folds repaired in each shell's own orientation
 ``bake``       the bake purpose: rows of their own per surface, then each island's repair
 ``separate``   step 5: overlapping, out-of-square and new islands moved; repacking

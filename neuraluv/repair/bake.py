@@ -16,15 +16,8 @@ import numpy as np
 from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.purpose import layout_intent
 from neuraluv.meshfix import weld_ids
-from neuraluv.repair.local import (
-    IslandGraph,
-    face_dets_of,
-    repair_cluster,
-    resolve_as_chart,
-    self_overlap_faces,
-    untangle_faces,
-    with_stretched_neighbours,
-)
+from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces, with_stretched_neighbours
+from neuraluv.repair.region import face_dets_of, self_overlap_faces
 from neuraluv.repair.shells import _own_copies
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.topology import vertex_components

@@ -45,7 +45,7 @@ from neuraluv.meshfix import face_areas
 from neuraluv.plot import plot_repair
 from neuraluv.repair.bake import collapsed_faces, own_rows_per_surface, repair_islands
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
-from neuraluv.repair.local import island_esds
+from neuraluv.repair.region import island_esds
 from neuraluv.repair.separate import SHRINK_SCALES, input_islands, repack_all, separate
 from neuraluv.repair.shells import repair_shells
 from neuraluv.repair.untangle import budget_spent

@@ -13,14 +13,8 @@ import scipy.sparse as sp
 from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent
-from neuraluv.repair.local import (
-    IslandGraph,
-    face_dets_of,
-    region_overlaps,
-    repair_cluster,
-    resolve_as_chart,
-    untangle_faces,
-)
+from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces
+from neuraluv.repair.region import face_dets_of, region_overlaps
 from neuraluv.repair.twins import layer_sign, twin_layers, twin_layers_hold, twins_follow
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.topology import undirected_edges

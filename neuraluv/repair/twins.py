@@ -13,7 +13,7 @@ from scipy.sparse.csgraph import connected_components
 from neuraluv.jacobian import signed_areas_2d
 from neuraluv.layout.facts import holds_more
 from neuraluv.meshfix import face_areas
-from neuraluv.repair.local import face_dets_of
+from neuraluv.repair.region import face_dets_of
 from neuraluv.topology import undirected_edges
 
 __all__ = ["twin_layers", "layer_sign", "twin_layers_hold", "twins_follow"]
