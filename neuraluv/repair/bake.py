@@ -18,7 +18,7 @@ from neuraluv.layout.purpose import layout_intent
 from neuraluv.meshfix import weld_ids
 from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces, with_stretched_neighbours
 from neuraluv.repair.region import face_dets_of, self_overlap_faces
-from neuraluv.repair.shells import _own_copies
+from neuraluv.repair.shells import own_copies
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.topology import vertex_components
 
@@ -143,7 +143,7 @@ def own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref):
         for k in np.unique(c[c != keep]):
             shared = np.intersect1d(FUV[fi[c == k]], FUV[fi[c != k]])
             if len(shared):
-                UV, FUV = _own_copies(UV, FUV, fi[c == k], shared)
+                UV, FUV = own_copies(UV, FUV, fi[c == k], shared)
                 copies, rows = copies + 1, rows + len(shared)
         if copies:
             actions[int(i)].append({"step": "own rows per surface", "surfaces": copies + 1, "rows_added": rows})

@@ -10,8 +10,9 @@ and fixes each problem with the smallest change that works, in this order:
    the whole island untangled, and only if that fails is it re-solved as a chart by
    the atlas router (neural, or a marked fallback) and put back where it was;
 3. an island that **overlaps itself** is untangled around the overlap, else re-solved; under a bake's
-   rules, where it overlaps itself because several surfaces share its rows (stacked copies), each
-   surface but the largest first gets copies of those rows, an island of its own for step 5;
+   rules, where it overlaps or mirrors itself because several surfaces share its rows (stacked copies,
+   a mirror modifier's halves), each surface but the largest first gets copies of those rows, an
+   island of its own for steps 1 and 5;
 4. faces with **missing or non-finite UVs** get new charts, solved like ``atlas``
    does, at the layout's median texel density; so, under a bake's rules, do the
    faces of an island with no UV area (a palette collapse);

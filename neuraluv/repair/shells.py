@@ -37,7 +37,7 @@ SEAM_OWN_RINGS = 2
 SEAM_RINGS = 2
 
 __all__ = ["repair_shells", "repair_across_shells", "seam_signs", "intended_overlaps", "PairsWith",
-           "repair_twin_layers"]
+           "repair_twin_layers", "own_copies"]
 
 
 def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural, only=None):
@@ -151,7 +151,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
             before_split = (work, FUVw, locked, held, graph)
             if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
-                work, FUVw = _own_copies(work, FUVw, shell, split)
+                work, FUVw = own_copies(work, FUVw, shell, split)
                 locked = np.r_[locked, np.zeros(len(split), bool)]
                 held = np.r_[held, np.zeros(len(split), bool)]
                 graph = IslandGraph(FUVw, shell, len(work), locked=locked)
@@ -230,7 +230,7 @@ def _resolved(Vn, F, UV, FUV, shell, shared, cl, dens, cfg, kw):
     """The last resort for a shell: re-solved as a chart (:func:`~neuraluv.repair.local.resolve_as_chart`), on its
     own copies of the rows ``shared`` with other shells; ``(UV, FUV, action)``, or ``(None, None, None)`` where a
     face of the fold ``cl`` is still not valid."""
-    W, FU = _own_copies(UV, FUV, shell, shared) if len(shared) else (UV, FUV)
+    W, FU = own_copies(UV, FUV, shell, shared) if len(shared) else (UV, FUV)
     out_uv, out_fuv, info = resolve_as_chart(Vn, F, W, FU, shell, dens, cfg, seed=kw["seed"], device=kw["device"],
                                              deadline=kw["deadline"])
     if not (face_dets_of(Vn, F, out_uv, out_fuv, cl) > 0).all():
@@ -238,14 +238,14 @@ def _resolved(Vn, F, UV, FUV, shell, shared, cl, dens, cfg, kw):
     return out_uv, out_fuv, {"step": info["step"], "time": info["time"], "pieces": info["pieces"]}
 
 
-def _own_copies(UV, FUV, shell, rows):
+def own_copies(UV, FUV, shell, rows):
     """``(UV, FUV)`` where the faces ``shell`` use new copies (appended, same values) of the sorted ``rows``; the
     other faces keep the originals.
 
     Examples
     --------
     >>> UV, FUV = np.zeros((4, 2)), np.array([[0, 1, 2], [1, 3, 2]])
-    >>> U2, F2 = _own_copies(UV, FUV, np.array([1]), np.array([1, 2]))
+    >>> U2, F2 = own_copies(UV, FUV, np.array([1]), np.array([1, 2]))
     >>> len(U2), F2.tolist()
     (6, [[0, 1, 2], [4, 3, 5]])
     """
