@@ -89,15 +89,15 @@ def repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, s
     return UVw, FUVw
 
 
-def collapsed_faces(facts, actions):
+def collapsed_faces(facts, actions, intent=None):
     """(m,) bool: the faces of islands with no UV area (every face with 3D area degenerate in UV: a palette
     collapse to a point or along a line). A bake gives them texels of their own: new charts, as for faces
     without UVs; untangling or re-solving them as they are searches a map from one point. Each such input
-    island's action is recorded in ``actions``."""
+    island's action is recorded in ``actions``. ``intent``: ``layout_intent(facts)`` when the caller has it."""
     out = np.zeros(len(facts.F), bool)
     if not facts.n_islands:
         return out
-    flat = layout_intent(facts).face_class == 0  # UV-degenerate, as check reads it
+    flat = (intent or layout_intent(facts)).face_class == 0  # UV-degenerate, as check reads it
     for i in range(facts.n_islands):
         fi = facts.island_faces(i)
         solid = fi[~facts.degenerate3d[fi]]
@@ -108,7 +108,7 @@ def collapsed_faces(facts, actions):
     return out
 
 
-def own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref):
+def own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref, intent=None):
     """Under a bake's rules each surface has texels of its own. An island can hold several surfaces on shared
     ``vt`` rows: 3D components (positions welded; an array modifier's stacked copies, identical parts laid on one
     texture) and shells of opposite orientation (a mirror modifier's halves, which share the mirror line's rows;
@@ -118,12 +118,12 @@ def own_rows_per_surface(Vn, F, UV, FUV, facts, actions, movers_pref):
     reflects back if it is mirrored and step 5 moves into free space.
 
     Returns ``UV, FUV, facts`` (``facts`` itself where nothing was split); ``actions`` and ``movers_pref`` (input
-    islands) are filled in.
+    islands) are filled in. ``intent``: ``layout_intent(facts)`` when the caller has it.
     """
     lab = facts.label
     if not facts.n_islands:
         return UV, FUV, facts
-    it = layout_intent(facts)
+    it = intent or layout_intent(facts)
     reversed_ = (it.shell >= 0) & (it.shell_sign[np.maximum(it.shell, 0)] < 0) if len(it.shell_sign) else \
         np.zeros(len(F), bool)
     W = weld_ids(Vn)

@@ -264,13 +264,13 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
                                          device=device, deadline=deadline, neural=neural)
             UVw, FUVw = UV1, FUV1
         else:
-            f1 = facts
-            collapsed = collapsed_faces(facts, actions)
+            f1, it = facts, (layout_intent(facts) if facts.n_islands else None)  # read once for both steps
+            collapsed = collapsed_faces(facts, actions, it)
             if collapsed.any():  # no texels of their own to repair: new charts (step 4), like faces without UVs
                 FUVw = FUVw.copy()
                 FUVw[collapsed] = -1
-                f1 = layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap)
-            UVw, FUVw, f1 = own_rows_per_surface(Vn, F, UVw, FUVw, f1, actions, movers_pref)
+                f1, it = layout_facts(Vn, F, UVw, FUVw, normalized=True, min_overlap=facts.min_overlap), None
+            UVw, FUVw, f1 = own_rows_per_surface(Vn, F, UVw, FUVw, f1, actions, movers_pref, it)
             acts1, pref1 = {j: [] for j in range(f1.n_islands)}, set()
             UVw, FUVw = repair_islands(Vn, F, UVw, FUVw, f1, acts1, pref1, med, cfg, seed=seed,
                                         device=device, deadline=deadline, neural=neural)
