@@ -480,7 +480,7 @@ def test_the_seam_of_mirrored_halves_is_placed_where_the_surface_puts_it():
     # a fold that turns faces of the right half over makes them read as faces of the left half; the seam
     # between the halves is a line of the surface the fold did not move: the shortest cut gives them back
     from neuraluv.repair.local import IslandGraph
-    from neuraluv.repair.shells import seam_signs
+    from neuraluv.repair.seams import seam_signs
 
     V, F, UV = mirrored_strip(n=10, rows=8)
     x = V[F].mean(1)[:, 0]

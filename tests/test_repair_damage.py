@@ -144,3 +144,26 @@ def test_faces_of_a_palette_point_that_became_nan_get_a_point_not_charts():
     assert res.after.validation["valid"] and res.after.validation["palette_faces"] == len(pal)
     assert [(c["route"], c["faces"]) for c in res.new_charts] == [("point", len(pal))]
     assert (res.FUV[pal] == res.FUV[pal[0], 0]).all() and np.isfinite(res.UV[res.FUV[pal[0], 0]]).all()
+
+
+def test_two_folds_that_overlap_in_uv_are_repaired_together_in_a_small_region():
+    # vertex noise on a subdivided Suzanne unwrapped without seams: a row dragged across another fold's
+    # neighbourhood. Repaired one after the other, the first fold's regions overlap the second's faces until
+    # they swallow it (3 rings, 130 faces here; 32 rings, 3,844 faces on the Suzanne); joined, the two folds'
+    # damaged rows alone are freed.
+    V, F = grid(24, 12)
+    V = np.c_[V[:, :2], 0.05 * np.sin(V[:, 0])]
+    UV = V[:, :2] / 24
+    a = 8 + 25 * 6
+    b = a + 4 + 25
+    bad = UV.copy()
+    bad[a] += np.array([-1.584, -1.767]) / 24
+    bad[b] += (UV[a] - UV[b]) * 0.808 + np.array([-0.161, 0.108]) / 24
+    f = layout_facts(V, F, bad, F)
+    assert [len(c) for c in face_clusters(F, np.flatnonzero(layout_intent(f).fold))] == [2, 2]
+    res = repair_layout(V, F, bad, F, purpose="texture", device="cpu")
+    assert res.after.validation["valid"]
+    untouched = ~np.isin(F, [a, b]).any(1)
+    assert not res.changed_faces[untouched].any()  # every face the damage did not touch is bit-identical
+    acts = [x for isl in res.islands for x in isl["actions"]]
+    assert [x.get("joined_faces") for x in acts] == [2]

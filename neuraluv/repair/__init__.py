@@ -12,6 +12,7 @@ are NumPy/SciPy/shapely and do not import torch.
 ``local``      fold repair in the smallest ring-grown region that works
 ``region``     what a repaired region is measured by: overlaps, distortion, det J
 ``shells``     the texture purpose: folds repaired in each shell's own orientation
+``seams``      a fold on the seam of two shells that share rows, repaired across them
 ``bake``       the bake purpose: rows of their own per surface, then each island's repair
 ``separate``   step 5: overlapping, out-of-square and new islands moved; repacking
 ``repair``     the escalation for a whole layout, the diff and the report

@@ -12,14 +12,15 @@ import numpy as np
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 
-__all__ = ["region_overlaps", "region_esd", "island_esds", "FAR_QUANTILE", "face_dets_of", "self_overlap_faces"]
+__all__ = ["region_overlaps", "region_esd", "island_esds", "FAR_QUANTILE", "face_dets_of", "self_overlap_faces",
+           "PairsWith", "intended_overlaps"]
 
 
 def region_overlaps(UV, FUV, region, island, allowed=None, group=None):
     """Number of overlapping triangle pairs with a face in ``region`` among the ``island``'s faces (exact).
 
     ``allowed``: a set of face pairs ``(i, j)``, ``i < j`` (or any container answering ``in`` for them,
-    :class:`~neuraluv.repair.shells.PairsWith`), that overlapped before on purpose (a texture
+    :class:`PairsWith`), that overlapped before on purpose (a texture
     layout's shell may lie over itself); they are not counted. Nor are twins (two faces on the same three rows:
     copies stacked on purpose, which no move of their rows can part). With ``group`` ((m,) int array), only
     pairs of one group count (the shells of an island stacked on each other overlap on purpose).
@@ -108,3 +109,53 @@ def self_overlap_faces(UV, FUV, island, det, subset=None):
     """Positive faces of ``island`` (or of ``subset``) overlapping another positive face of the island."""
     a, b = overlap_pairs(UV, FUV, island[det > 0], subset)
     return np.unique(np.concatenate([a, b]))
+
+
+class PairsWith:
+    """Face pairs a repaired region may keep (:func:`~neuraluv.repair.local.region_overlaps`' ``allowed``): the pairs
+    of ``pairs`` and every pair with a face of ``faces`` ((m,) bool).
+
+    Examples
+    --------
+    >>> ok = PairsWith({(0, 5)}, np.array([False, False, True, False, False, False]))
+    >>> [(0, 5) in ok, (2, 4) in ok, (1, 3) in ok]
+    [True, True, False]
+    """
+
+    def __init__(self, pairs, faces):
+        self.pairs, self.faces = set(pairs or ()), np.asarray(faces, bool)
+
+    def __contains__(self, pair):
+        return pair in self.pairs or bool(self.faces[pair[0]] or self.faces[pair[1]])
+
+    def __bool__(self):
+        return bool(self.pairs) or bool(self.faces.any())
+
+
+def intended_overlaps(UV, FUV, shell, bad, graph, rings=3, subset=None):
+    """Pairs of the shell's faces that overlap on purpose: a repaired region may keep them.
+
+    Two overlapping faces of which neither is broken overlap on purpose (a shell laid over itself); so do a
+    broken face and a face more than ``rings`` rings away from it (the fold lies where the shell is stacked
+    on another part of itself). A broken face over its near neighbours is the fold itself. ``subset``: only
+    the pairs with a face in it.
+    """
+    a, b = overlap_pairs(UV, FUV, shell, subset)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    keep = ~bad[lo] & ~bad[hi]
+    n = np.flatnonzero(~keep)
+    if len(n):
+        i, j = np.where(bad[lo[n]], lo[n], hi[n]), np.where(bad[lo[n]], hi[n], lo[n])  # i broken
+        # j is within `rings` rings of i (rows grown `rings` times from i's, as IslandGraph.grow does) exactly when
+        # (G^(rings+1))[i, j] != 0, G the faces' adjacency through shared rows (each face its own neighbour)
+        pos = np.full(len(bad), -1)
+        pos[graph.faces] = np.arange(len(graph.faces))
+        G = (graph.M @ graph.MT).tocsr()
+        G.data[:] = 1.0
+        ui, inv = np.unique(i, return_inverse=True)
+        R = G[pos[ui]]
+        for _ in range(rings):
+            R = (R @ G).tocsr()
+            R.data[:] = 1.0
+        keep[n] = np.asarray(R[inv.reshape(-1), pos[j]]).reshape(-1) == 0
+    return set(zip(lo[keep].tolist(), hi[keep].tolist()))

@@ -8,24 +8,15 @@ same local escalation as a bake layout's folds (:func:`~neuraluv.repair.local.re
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent
 from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces
-from neuraluv.repair.region import face_dets_of, region_overlaps
+from neuraluv.repair.region import PairsWith, face_dets_of, intended_overlaps, region_overlaps
+from neuraluv.repair.seams import repair_across_shells
 from neuraluv.repair.twins import layer_sign, twin_layers, twin_layers_hold, twins_follow
 from neuraluv.repair.untangle import budget_spent
-from neuraluv.topology import undirected_edges
-
-#: A fold on a seam between shells is repaired across them in regions of at most this share of the island (a
-#: seam's fold is local; larger regions of two stacked shells seldom come out without overlaps, and cost seconds).
-ACROSS_FRACTION = 0.1
-#: ... and of at most this many rings around the fold: on the damaged Duck, Suzanne and three mirrored Blender
-#: Suzannes (local folds and vertex noise, seeds 10-13: 55 repairs across shells) the 12 that worked did so within
-#: one ring of the fold, while the 43 that failed took 12.5 s trying up to 8 rings (7.1 s up to 2).
-ACROSS_RINGS = 2
 
 #: A fold on a seam (rows shared with another shell) tries its own shell within this many rings first; larger regions
 #: of it come after the twin layers and across shells. Damaged Duck, Suzanne, cylinders, capsule, fuze, spot, milk
@@ -33,11 +24,15 @@ ACROSS_RINGS = 2
 #: the 63 that failed took 62 s of the sweep's 105 s of local repairs, trying up to 12 rings.
 SEAM_OWN_RINGS = 2
 
-#: Rings around a fold on a seam in which :func:`seam_signs` places the seam anew.
-SEAM_RINGS = 2
+#: A fold whose regions of up to this many rings all fail waits until the other folds of its shell were repaired,
+#: then escalates from its smallest region again: the damage of another fold may lie across those regions (a
+#: subdivided Suzanne unwrapped without seams, 1% vertex noise: one fold's region grew to 32 rings, 3,844 faces).
+WAIT_RINGS = 8
 
-__all__ = ["repair_shells", "repair_across_shells", "seam_signs", "intended_overlaps", "PairsWith",
-           "repair_twin_layers", "own_copies"]
+#: Folds whose neighbourhoods overlap in UV (or touch) are first repaired together within this many rings.
+JOIN_RINGS = 2
+
+__all__ = ["repair_shells", "repair_twin_layers", "own_copies"]
 
 
 def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, deadline, neural, only=None):
@@ -46,9 +41,13 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     A fold on rows that two stacked halves share (twin faces) is repaired in its half's layer
     (:func:`repair_twin_layers`): the twins follow, mirrored.
 
-    The steps for one fold, most local first: a region of its shell (for a fold on rows shared with another
-    shell, at most :data:`SEAM_OWN_RINGS` rings); a region of its twin halves' layer; a region across the
-    shells that share its rows (:func:`repair_across_shells`); the larger regions of its shell; a region of
+    The steps for one fold, most local first: with the folds of the shell still to come whose neighbourhoods
+    overlap its own in UV (or touch it), its own damaged rows (no ring around), then a region of the shell for all
+    of them (at most :data:`JOIN_RINGS` rings);
+    a region of its shell (for a fold on rows shared with another shell, at most :data:`SEAM_OWN_RINGS` rings;
+    while other folds are to come, at most :data:`WAIT_RINGS`: a fold no such region repairs, or whose region
+    reaches a fold that waits, waits until the others had their turn, then escalates from its smallest region); a region of its twin halves' layer; a region across the
+    shells that share its rows (:func:`~neuraluv.repair.seams.repair_across_shells`); the larger regions of its shell; a region of
     the shell on copies of those rows; the twin halves' whole layer (untangled, else re-solved); the whole shell
     untangled; the shell re-solved.
 
@@ -125,7 +124,11 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         targets = shell[bad[shell]]
         graph = IslandGraph(FUVw, shell, len(work), locked=locked)
         allowed = intended_overlaps(work, FUVw, shell, bad, graph)  # (it reads the faces' rows, not the locks)
-        for cl in face_clusters(FUVw, targets):
+        queue = face_clusters(FUVw, targets)
+        waited = set()  # positions in the queue of folds that wait for the shell's other folds
+        q = 0
+        while q < len(queue):
+            cl, q = queue[q], q + 1
             if (face_dets_of(Vn, F, work, FUVw, cl) > 0).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
                 continue  # fixed by an earlier cluster's region
             if np.isin(cl, twin_done).all() and twin_layers_hold(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl):
@@ -135,7 +138,27 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             own[np.unique(FUVw[cl[bad[cl]]])] = True
             g = IslandGraph(FUVw, shell, len(work), locked=locked & ~(held & own)) if (held & own).any() else graph
             seam = bool(locked[np.unique(FUVw[cl])].any())  # rows shared with another shell (a seam, twin halves)
-            out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, max_rings=SEAM_OWN_RINGS if seam else None, **kw)
+            wait = not seam and q - 1 not in waited and q < len(queue)  # other folds of the shell still to come
+            out = None
+            joined = _joined(work, FUVw, g, cl, [c for c in queue[q:] if not (face_dets_of(Vn, F, work, FUVw, c) > 0)
+                                                 .all()], allowed) if wait else []
+            if joined:  # folds whose neighbourhoods overlap (or touch): its own rows first, then repaired as one
+                out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, max_rings=0, **kw)
+                both = np.unique(np.concatenate([cl, *joined]))
+                if out is None:
+                    out, info = repair_cluster(Vn, F, work, FUVw, g, both, dens, max_rings=JOIN_RINGS, **kw)
+                    if out is not None:
+                        info = {**info, "joined_faces": int(len(both) - len(cl))}
+            if out is None:
+                out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, min_rings=1 if joined else None,
+                                           max_rings=SEAM_OWN_RINGS if seam else WAIT_RINGS if wait else None, **kw)
+            if wait and not budget_spent(deadline) and (out is None or _reaches(out, work, FUVw, queue, waited, q)):
+                # no small region works: another fold's damage may lie across them (an unwrap without seams packs
+                # far-apart surface close in UV); this fold is tried again, from its smallest region, after the
+                # others. So is one whose region reaches a waiting fold (it would repair it too, in a larger region)
+                waited.add(len(queue))
+                queue.append(cl)
+                continue
             twins = out is None and seam  # a fold of twin halves sharing their rows?
             if twins:  # in the halves' layers, locally first (the whole layer is a later resort)
                 out, info = _twin(False)
@@ -199,7 +222,8 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 continue
             work = out
             actions[i].append({kk: info[kk] for kk in ("step", "rings", "extra_rings", "region_faces", "free_rows",
-                                                      "split_rows", "seam_faces", "kept_overlaps") if kk in info}
+                                                      "split_rows", "seam_faces", "kept_overlaps", "joined_faces")
+                               if kk in info}
                               | {"cluster_faces": int(len(cl)), "time": info["time"], "shell": int(k),
                                  **({"mirrored_shell": True} if flip else {})})
         UVw = work * np.array([-1.0, 1.0]) if flip else work
@@ -224,6 +248,39 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             act.clear()
             act.update({**info, "cluster_faces": int(len(cl)), "shell": int(k), "split_rows": int(len(shared))})
     return UVw, FUVw
+
+
+def _joined(UV, FUV, graph, cl, pending, allowed):
+    """The folds of ``pending`` joined to the fold ``cl``: a face within one ring of one overlaps (or is) a face
+    within one ring of the other, and the pair does not overlap on purpose (``allowed``)."""
+    def near(c):
+        rows = np.zeros(graph.M.shape[1], bool)
+        rows[np.unique(FUV[c])] = True
+        return graph.faces_touching(graph.grow(rows))
+
+    mine = near(cl)
+    out = []
+    for c in pending:
+        theirs = near(c)
+        if np.intersect1d(mine, theirs).size:
+            out.append(c)
+            continue
+        a, b = overlap_pairs(UV, FUV, np.union1d(mine, theirs), theirs)
+        hit = np.isin(a, mine) | np.isin(b, mine)
+        if any((int(min(i, j)), int(max(i, j))) not in (allowed or ()) for i, j in zip(a[hit], b[hit])):
+            out.append(c)
+    return out
+
+
+def _reaches(out, work, FUV, queue, waited, q):
+    """Whether the repaired map ``out`` moved a row of a fold still waiting in ``queue`` (positions ``waited`` from
+    ``q`` on)."""
+    wait = [queue[j] for j in waited if j >= q]
+    if not wait:
+        return False
+    rows = np.unique(FUV[np.concatenate(wait)])
+    rows = rows[rows < min(len(out), len(work))]
+    return bool((out[rows] != work[rows]).any())
 
 
 def _resolved(Vn, F, UV, FUV, shell, shared, cl, dens, cfg, kw):
@@ -258,231 +315,6 @@ def own_copies(UV, FUV, shell, rows):
     return np.vstack([UV, UV[rows]]), FUV
 
 
-def repair_across_shells(Vn, F, UV, FUV, facts, it, island, cluster, bad, scale, *, allowed_cache=None, **kw):
-    """Repair a fold on rows that shells of one island share (a seam), with the rows of every shell free.
-
-    Each face is untangled and polished in its own shell's orientation (``sign``,
-    :meth:`~neuraluv.repair.untangle.RegionEnergy.build`), only overlaps within a shell count, and rows of
-    faces in no shell (a palette collapse, faces without 3D area) stay where they are.
-
-    Parameters
-    ----------
-    Vn : (n,3) float array
-    F, FUV : (m,3) int arrays
-    UV : (p,2) float array, the layout as it is (not a shell's orientation)
-    facts, it : :class:`~neuraluv.layout.facts.LayoutFacts`, :class:`~neuraluv.layout.purpose.LayoutIntent`
-    island : int
-    cluster : int array, the fold's faces
-    bad : (m,) bool array, the problem faces (for the overlaps that were there on purpose)
-    scale : float, the island's texel density
-    allowed_cache : dict, optional
-        ``island -> face pairs that overlap on purpose`` (:func:`intended_overlaps` over the island's shells),
-        filled on first use: a repair moves only broken faces, so the pairs read once hold for its other folds
-        (``bad``, the island's problem faces, is the same for all of them).
-    **kw : for :func:`~neuraluv.repair.local.repair_cluster`
-
-    Returns
-    -------
-    UV or None, info (as :func:`~neuraluv.repair.local.repair_cluster`; ``step`` says "(across shells)")
-    """
-    faces = facts.island_faces(island)
-    inside = faces[it.shell[faces] >= 0]
-    sign = np.zeros(len(F))
-    sign[inside] = it.shell_sign[it.shell[inside]]
-    locked = np.zeros(len(UV), bool)
-    locked[np.unique(FUV[np.setdiff1d(faces, inside)])] = True
-    graph = IslandGraph(FUV, inside, len(UV), locked=locked)
-    allowed = None if allowed_cache is None else allowed_cache.get(int(island))
-    if allowed is None:
-        allowed = intended_overlaps(UV, FUV, inside, bad, graph)
-        if allowed_cache is not None:
-            allowed_cache[int(island)] = allowed
-    out, info = repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, **{**kw, "allowed": allowed},
-                               sign=sign, group=it.shell, max_fraction=ACROSS_FRACTION, max_rings=ACROSS_RINGS)
-    moved = np.zeros(0, np.int64)
-    if out is None and not budget_spent(kw.get("deadline")):
-        # the fold may have turned faces of one half over so that they read as the other half's: again with
-        # each face near the fold on the side of the shortest seam
-        sign2, group2, moved = seam_signs(Vn, F, UV, FUV, graph, cluster, sign, it.shell)
-        if len(moved):
-            if not bad[moved].all():  # faces the cut turned over are broken too: their overlaps are not intended
-                bad2 = bad.copy()
-                bad2[moved] = True
-                mv = set(moved.tolist())  # the island's pairs as read once, those of the faces it turned over anew
-                allowed = {p for p in allowed if p[0] not in mv and p[1] not in mv} | intended_overlaps(
-                    UV, FUV, inside, bad2, graph, subset=moved)
-            out, info = repair_cluster(Vn, F, UV, FUV, graph, np.union1d(cluster, moved), scale,
-                                       **{**kw, "allowed": allowed}, sign=sign2, group=group2,
-                                       max_fraction=ACROSS_FRACTION, max_rings=ACROSS_RINGS)
-    if out is not None:
-        info = {**info, "step": info["step"] + " (across shells)"} | ({"seam_faces": int(len(moved))} if len(moved)
-                                                                       else {})
-    return out, info
-
-
-def seam_signs(Vn, F, UV, FUV, graph, cluster, sign, shell, rings=SEAM_RINGS):
-    """Which side of a seam between mirrored shells each face near a fold belongs to, read from the surface.
-
-    A fold on the seam of two mirrored halves turns faces of one half over, so that the layout reads them as
-    faces of the other half (their orientation is all the damaged layout tells). The seam itself is a line
-    on the surface the damage does not move: near the fold each face is given the side (``sign``) of the
-    labelling with the shortest seam (3D length of the edges between the two sides), all faces further away
-    keeping theirs — a minimum cut, with a tie-break towards each face's present orientation.
-
-    Parameters
-    ----------
-    Vn : (n,3) float array
-    F, FUV : (m,3) int arrays
-    UV : (p,2) float array
-    graph : IslandGraph
-        The faces of the island's shells (``graph.faces``).
-    cluster : int array
-        The fold's faces.
-    sign : (m,) float array
-        +1 / -1: the orientation of each face's shell (0: in no shell).
-    shell : (m,) int array
-        Each face's shell.
-    rings : int
-        The faces within this many rings of the cluster get a new side; the rest hold theirs.
-
-    Returns
-    -------
-    sign, shell : (m,) arrays, copies with the near faces' sides and shells (a face that changes side joins a
-        neighbouring shell of its new side)
-    moved : int array, the faces whose side changed
-
-    Examples
-    --------
-    Two mirrored halves of a strip meet at its narrowest, x = 0, laid on the same texels (``u = |x|``); a fold
-    drags a row of the first face right of the seam over it, so the layout reads that face as one of the left
-    half. The shortest seam gives it back to the right half:
-
-    >>> V = np.array([[x, y * (1 + abs(x) / 10), 0.0] for x in range(-4, 5) for y in (0, 1)])  # narrowest at 0
-    >>> F = np.array([f for c in range(8) for f in ([2 * c, 2 * c + 2, 2 * c + 1], [2 * c + 1, 2 * c + 2, 2 * c + 3])])
-    >>> UV = np.abs(V[:, :2]); UV[10] = [-0.5, 0.0]                  # the fold: face 8 turned over
-    >>> sign = np.r_[-np.ones(9), np.ones(7)]; shell = np.r_[np.zeros(9, int), np.ones(7, int)]   # as read
-    >>> s, sh, moved = seam_signs(V, F, UV, F, IslandGraph(F, np.arange(16), len(UV)), np.array([8]), sign, shell)
-    >>> s[6:11].tolist(), sh[6:11].tolist(), moved.tolist()
-    ([-1.0, -1.0, 1.0, 1.0, 1.0], [0, 0, 1, 1, 1], [8])
-    """
-    from scipy.sparse.csgraph import breadth_first_order, maximum_flow
-
-    sign, shell = np.asarray(sign, float).copy(), np.asarray(shell).copy()
-    faces = graph.faces
-    if len(np.unique(sign[faces])) < 2:
-        return sign, shell, np.zeros(0, np.int64)  # one orientation all around: no seam to place
-    rows = np.zeros(graph.M.shape[1], bool)
-    rows[np.unique(FUV[cluster])] = True
-    for _ in range(rings):
-        rows = graph.grow(rows) | rows
-    near = graph.faces_touching(rows)
-    # faces sharing a texture edge, and that edge's length on the surface
-    _, E = undirected_edges(FUV[faces])
-    P = np.asarray(Vn, float)[F[faces]]
-    L = np.linalg.norm(np.concatenate([P[:, 1] - P[:, 0], P[:, 2] - P[:, 1], P[:, 0] - P[:, 2]]), axis=1)
-    who = np.tile(faces, 3)
-    _, key = np.unique(E, axis=0, return_inverse=True)
-    order = np.argsort(key, kind="stable")
-    k, w_, L_ = key[order], who[order], L[order]
-    pair = k[1:] == k[:-1]  # consecutive faces on one edge (a stacked edge gives a chain of pairs)
-    a, b, le = w_[:-1][pair], w_[1:][pair], L_[:-1][pair]
-    idx = np.full(len(F), -1)
-    idx[near] = np.arange(len(near))
-    n = len(near)
-    src, snk = n, n + 1
-    unit = 1000.0 / max(float(np.median(le)) if len(le) else 1.0, 1e-300)
-    cap = np.clip(np.rint(le * unit), 1, 2**20).astype(np.int64)  # integer capacities; no int32 overflow in sums
-    us, vs, cs = [], [], []
-    ia, ib = idx[a], idx[b]
-    both = (ia >= 0) & (ib >= 0)
-    us += [ia[both], ib[both]]
-    vs += [ib[both], ia[both]]
-    cs += [cap[both], cap[both]]
-    for x, y in ((ia, b), (ib, a)):  # a near face beside a face holding its side: tied to that side
-        m = (x >= 0) & (idx[y] < 0) & (sign[y] != 0)
-        us.append(np.where(sign[y[m]] > 0, src, x[m]))
-        vs.append(np.where(sign[y[m]] > 0, x[m], snk))
-        cs.append(cap[m])
-    det = face_dets_of(Vn, F, UV, FUV, near)  # the tie-break: each near face's orientation as it is
-    us.append(np.where(det > 0, src, np.arange(n)))
-    vs.append(np.where(det > 0, np.arange(n), snk))
-    cs.append(np.ones(n, np.int64))
-    G = sp.csr_matrix((np.concatenate(cs).astype(np.int32), (np.concatenate(us), np.concatenate(vs))),
-                      shape=(n + 2, n + 2))
-    G.sum_duplicates()
-    flow = maximum_flow(G, src, snk).flow
-    residual = (G - flow).tocsr()
-    residual.data[residual.data < 0] = 0
-    residual.eliminate_zeros()
-    seen = np.zeros(n + 2, bool)  # the source's side of the minimum cut (what it still reaches): +1
-    seen[breadth_first_order(residual, src, return_predecessors=False)] = True
-    new = np.where(seen[:n], 1.0, -1.0)
-    moved = near[(new != sign[near]) & (sign[near] != 0)]
-    sign[near] = np.where(sign[near] != 0, new, 0.0)
-    # a face that changed side joins a shell of its new side beside it (repeated: a patch joins from its rim)
-    left = set(moved.tolist())
-    for _ in range(len(moved)):
-        if not left:
-            break
-        for f in list(left):
-            nb = np.r_[b[a == f], a[b == f]]
-            nb = nb[(sign[nb] == sign[f]) & ~np.isin(nb, list(left))]
-            if len(nb):
-                shell[f] = shell[nb[0]]
-                left.discard(f)
-    return sign, shell, moved
-
-
-class PairsWith:
-    """Face pairs a repaired region may keep (:func:`~neuraluv.repair.local.region_overlaps`' ``allowed``): the pairs
-    of ``pairs`` and every pair with a face of ``faces`` ((m,) bool).
-
-    Examples
-    --------
-    >>> ok = PairsWith({(0, 5)}, np.array([False, False, True, False, False, False]))
-    >>> [(0, 5) in ok, (2, 4) in ok, (1, 3) in ok]
-    [True, True, False]
-    """
-
-    def __init__(self, pairs, faces):
-        self.pairs, self.faces = set(pairs or ()), np.asarray(faces, bool)
-
-    def __contains__(self, pair):
-        return pair in self.pairs or bool(self.faces[pair[0]] or self.faces[pair[1]])
-
-    def __bool__(self):
-        return bool(self.pairs) or bool(self.faces.any())
-
-
-def intended_overlaps(UV, FUV, shell, bad, graph, rings=3, subset=None):
-    """Pairs of the shell's faces that overlap on purpose: a repaired region may keep them.
-
-    Two overlapping faces of which neither is broken overlap on purpose (a shell laid over itself); so do a
-    broken face and a face more than ``rings`` rings away from it (the fold lies where the shell is stacked
-    on another part of itself). A broken face over its near neighbours is the fold itself. ``subset``: only
-    the pairs with a face in it.
-    """
-    a, b = overlap_pairs(UV, FUV, shell, subset)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    keep = ~bad[lo] & ~bad[hi]
-    n = np.flatnonzero(~keep)
-    if len(n):
-        i, j = np.where(bad[lo[n]], lo[n], hi[n]), np.where(bad[lo[n]], hi[n], lo[n])  # i broken
-        # j is within `rings` rings of i (rows grown `rings` times from i's, as IslandGraph.grow does) exactly when
-        # (G^(rings+1))[i, j] != 0, G the faces' adjacency through shared rows (each face its own neighbour)
-        pos = np.full(len(bad), -1)
-        pos[graph.faces] = np.arange(len(graph.faces))
-        G = (graph.M @ graph.MT).tocsr()
-        G.data[:] = 1.0
-        ui, inv = np.unique(i, return_inverse=True)
-        R = G[pos[ui]]
-        for _ in range(rings):
-            R = (R @ G).tocsr()
-            R.data[:] = 1.0
-        keep[n] = np.asarray(R[inv.reshape(-1), pos[j]]).reshape(-1) == 0
-    return set(zip(lo[keep].tolist(), hi[keep].tolist()))
-
-
 def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, allowed_cache=None, **kw):
     """Repair a fold of twin halves in their layers (:func:`~neuraluv.repair.twins.twin_layers`), each in its own
     orientation.
@@ -503,7 +335,7 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
         When no local region works, untangle the whole layer (its locked rows kept), else re-solve a layer
         whose rows only its twins share as a chart; with False such a fold is left (None) for other steps.
     allowed_cache : dict, optional
-        The face pairs of each layer that overlap on purpose (:func:`intended_overlaps`, with every face
+        The face pairs of each layer that overlap on purpose (:func:`~neuraluv.repair.region.intended_overlaps`, with every face
         reversed against the layer broken), filled on first use and read by the island's later folds.
     **kw : for :func:`~neuraluv.repair.local.repair_cluster`
 
