@@ -1,7 +1,5 @@
 """``python -m neuraluv ...`` (the same as the ``neuraluv`` command)."""
-import sys
-
-from neuraluv.cli import main
+from neuraluv.cli import console
 
 if __name__ == "__main__":
-    sys.exit(main())
+    console()

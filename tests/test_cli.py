@@ -197,3 +197,14 @@ def test_cli_check_atlas_and_errors(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "empty" in err[0]
     assert main(["atlas", str(src), "-o", str(tmp_path / "e.png")]) == 2
+
+
+def test_the_command_exits_with_mains_status_and_its_output_whole(tmp_path):
+    # console() ends the process without the interpreter's teardown: the status and every line must still arrive
+    r = run_cli("--version")
+    assert r.returncode == 0 and r.stdout.strip().startswith("neuraluv ")
+    r = run_cli("check", tmp_path / "missing.obj")
+    assert r.returncode == 2 and r.stderr.startswith("neuraluv: error:")
+    write_mesh(tmp_path / "d.obj", *datasets.disk(3))
+    r = run_cli("check", tmp_path / "d.obj", "--json")
+    assert r.returncode == 0 and json.loads(r.stdout)["faces"] > 0

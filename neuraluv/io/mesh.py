@@ -7,9 +7,7 @@ import sys
 from contextlib import contextmanager
 from pathlib import Path
 
-import igl
 import numpy as np
-import trimesh
 
 from neuraluv.errors import MeshLoadError
 from neuraluv.io import MESH_EXTENSIONS
@@ -70,6 +68,8 @@ def _load_tet_surface(path: Path):
         head = fh.read(256)
     if b"MeshVersionFormatted" not in head:
         raise MeshLoadError(f"{path.name}: not a MEDIT .mesh file (no 'MeshVersionFormatted' header)")
+    import igl
+
     with _quiet_stderr():
         Vt, T, Fs = igl.readMESH(str(path))
     if T.size:
@@ -177,6 +177,8 @@ def load_mesh(path) -> tuple[np.ndarray, np.ndarray]:
         except Exception as exc:  # libigl raises RuntimeError on bad files
             raise MeshLoadError(f"{path.name}: could not read .mesh file ({exc})") from None
         return check_mesh_arrays(V, F, name=path.name)
+
+    import trimesh  # imported here: an OBJ run need not pay for it (about a second)
 
     try:
         loaded = trimesh.load(str(path), process=False, force=None)
