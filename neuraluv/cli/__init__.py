@@ -136,7 +136,8 @@ def console():
     The exit handlers run (``atexit``) and the output streams are flushed, and then the process ends without the
     interpreter's teardown of every module: with torch loaded that teardown alone took about 0.7 s of each
     command (``import torch, numba, scipy.sparse``, then exit: 3.0-3.1 s, with this exit 2.3-2.4 s, on the 2-core
-    CI machine). Where a thread that is not a daemon or a child process still runs, the usual exit waits for it.
+    CI machine). Where a thread that is not a daemon or a child process still runs, or a profiler or debugger
+    watches (``python -m cProfile -m neuraluv ...`` writes its statistics after the command), the usual exit.
     """
     import os
     import threading
@@ -144,7 +145,8 @@ def console():
     code = main()
     others = [t for t in threading.enumerate() if t is not threading.main_thread() and not t.daemon and t.is_alive()]
     children = "multiprocessing" in sys.modules and sys.modules["multiprocessing"].active_children()
-    if not isinstance(code, int) or others or children:
+    watched = sys.getprofile() is not None or sys.gettrace() is not None  # cProfile, a debugger: they write at exit
+    if not isinstance(code, int) or others or children or watched:
         sys.exit(code)
     import atexit
 

@@ -8,6 +8,7 @@ same local escalation as a bake layout's folds (:func:`~neuraluv.repair.local.re
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
@@ -140,8 +141,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
             seam = bool(locked[np.unique(FUVw[cl])].any())  # rows shared with another shell (a seam, twin halves)
             wait = not seam and q - 1 not in waited and q < len(queue)  # other folds of the shell still to come
             out = None
-            joined = _joined(work, FUVw, g, cl, [c for c in queue[q:] if not (face_dets_of(Vn, F, work, FUVw, c) > 0)
-                                                 .all()], allowed) if wait else []
+            joined = _joined(Vn, F, work, FUVw, g, cl, queue[q:], allowed) if wait else []
             if joined:  # folds whose neighbourhoods overlap (or touch): its own rows first, then repaired as one
                 out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, max_rings=0, **kw)
                 both = np.unique(np.concatenate([cl, *joined]))
@@ -250,26 +250,36 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     return UVw, FUVw
 
 
-def _joined(UV, FUV, graph, cl, pending, allowed):
-    """The folds of ``pending`` joined to the fold ``cl``: a face within one ring of one overlaps (or is) a face
-    within one ring of the other, and the pair does not overlap on purpose (``allowed``)."""
-    def near(c):
-        rows = np.zeros(graph.M.shape[1], bool)
-        rows[np.unique(FUV[c])] = True
-        return graph.faces_touching(graph.grow(rows))
+def _joined(Vn, F, UV, FUV, graph, cl, pending, allowed):
+    """The folds of ``pending`` (still folded) joined to the fold ``cl``: a face within one ring of one overlaps (or
+    is) a face within one ring of the other, and the pair does not overlap on purpose (``allowed``).
 
-    mine = near(cl)
-    out = []
-    for c in pending:
-        theirs = near(c)
-        if np.intersect1d(mine, theirs).size:
-            out.append(c)
-            continue
-        a, b = overlap_pairs(UV, FUV, np.union1d(mine, theirs), theirs)
-        hit = np.isin(a, mine) | np.isin(b, mine)
-        if any((int(min(i, j)), int(max(i, j))) not in (allowed or ()) for i, j in zip(a[hit], b[hit])):
-            out.append(c)
-    return out
+    One pass for all of them (sparse products over the island's face-row incidence, one overlap test): a layout
+    folded as made (a sphere projection) has hundreds of folds.
+    """
+    if not pending:
+        return []
+    faces = np.concatenate(pending)
+    lab = np.repeat(np.arange(len(pending)), [len(c) for c in pending])
+    folded = np.bincount(lab, weights=(face_dets_of(Vn, F, UV, FUV, faces) <= 0).astype(float), minlength=len(pending))
+    rows = FUV[faces].reshape(-1)
+    C = sp.csr_matrix((np.ones(len(rows)), (rows, np.repeat(lab, 3))), shape=(graph.M.shape[1], len(pending)))
+    grown = graph.MT @ ((graph.M @ C) > 0).astype(float)                # rows of the faces touching each fold
+    grown = sp.diags((~graph.locked).astype(float)) @ grown             # locked rows are never freed (IslandGraph.grow)
+    near = ((graph.M @ (grown > 0).astype(float)) > 0).tocsr()          # island faces (local) x folds: within one ring
+    pos = np.full(len(F), -1)
+    pos[graph.faces] = np.arange(len(graph.faces))
+    rows_cl = np.zeros(graph.M.shape[1], bool)
+    rows_cl[np.unique(FUV[cl])] = True
+    mine = graph.faces_touching(graph.grow(rows_cl))
+    hit = np.asarray(near[pos[mine]].sum(0)).reshape(-1) > 0            # a face near both
+    others = graph.faces[np.asarray(near.sum(1)).reshape(-1) > 0]
+    a, b = overlap_pairs(UV, FUV, np.union1d(mine, others), mine)
+    keep = [(int(min(x, y)), int(max(x, y))) not in (allowed or ()) for x, y in zip(a, b)]
+    partner = np.where(np.isin(a, mine), b, a)[np.asarray(keep, bool)] if len(a) else np.zeros(0, np.int64)
+    if len(partner):
+        hit |= np.asarray(near[pos[partner]].sum(0)).reshape(-1) > 0
+    return [c for c, h, f in zip(pending, hit, folded) if h and f > 0]
 
 
 def _reaches(out, work, FUV, queue, waited, q):
