@@ -43,14 +43,14 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
     (:func:`repair_twin_layers`): the twins follow, mirrored.
 
     The steps for one fold, most local first: with the folds of the shell still to come whose neighbourhoods
-    overlap its own in UV (or touch it), its own damaged rows (no ring around), then a region of the shell for all
-    of them (at most :data:`JOIN_RINGS` rings);
-    a region of its shell (for a fold on rows shared with another shell, at most :data:`SEAM_OWN_RINGS` rings;
-    while other folds are to come, at most :data:`WAIT_RINGS`: a fold no such region repairs, or whose region
-    reaches a fold that waits, waits until the others had their turn, then escalates from its smallest region); a region of its twin halves' layer; a region across the
-    shells that share its rows (:func:`~neuraluv.repair.seams.repair_across_shells`); the larger regions of its shell; a region of
-    the shell on copies of those rows; the twin halves' whole layer (untangled, else re-solved); the whole shell
-    untangled; the shell re-solved.
+    overlap its own in UV (or touch it), its own damaged rows (no ring around), then a region of the shell for
+    all of them (at most :data:`JOIN_RINGS` rings); a region of its shell (for a fold on rows shared with another
+    shell, at most :data:`SEAM_OWN_RINGS` rings; while other folds are to come, at most :data:`WAIT_RINGS`: a
+    fold no such region repairs, or whose region reaches a fold that waits, waits until the others had their
+    turn, then escalates from its smallest region); a region of its twin halves' layer; a region across the
+    shells that share its rows (:func:`~neuraluv.repair.seams.repair_across_shells`); the larger regions of its
+    shell; a region of the shell on copies of those rows; the twin halves' whole layer (untangled, else
+    re-solved); the whole shell untangled; the shell re-solved.
 
     A reversed shell is repaired on the layout negated in ``u`` (exact), then negated back, so every row
     the repair does not free is bit-identical. Pairs of the shell's faces that overlapped on purpose may
@@ -345,8 +345,8 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
         When no local region works, untangle the whole layer (its locked rows kept), else re-solve a layer
         whose rows only its twins share as a chart; with False such a fold is left (None) for other steps.
     allowed_cache : dict, optional
-        The face pairs of each layer that overlap on purpose (:func:`~neuraluv.repair.region.intended_overlaps`, with every face
-        reversed against the layer broken), filled on first use and read by the island's later folds.
+        The face pairs of each layer that overlap on purpose (:func:`~neuraluv.repair.region.intended_overlaps`,
+        with every face reversed against the layer broken), filled on first use and read by the island's later folds.
     **kw : for :func:`~neuraluv.repair.local.repair_cluster`
 
     Returns
