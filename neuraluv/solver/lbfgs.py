@@ -25,21 +25,27 @@ def memory_length(cfg, n):
     Returns
     -------
     int
-        ``min(cfg.history, max(5, n // 4))``.
+        ``min(cfg.history, max(3, n // 8))``: a pair per 8 vertices.
 
     Notes
     -----
     The memory costs ``O(m·P)`` per chart and step whatever the chart's size,
     the network ``O(n·P)``: for charts of a few dozen vertices a full memory
-    would cost more than the network itself.
+    would cost more than the network itself. The pairs are read twice per
+    step from memory (tens of megabytes for a batch of small charts), so the
+    step's time follows ``m`` closely. One pair per 8 vertices instead of per
+    4 (issue 28), on the solver batches of the atlases of cow, spot and
+    fertility, one thread: solver time −25% on cow's batch of 47 charts of
+    ≤ 53 vertices, −15% to −17% over every batch of spot and fertility, for
+    0.3–2.4% more steps in all and the same mean E_SD to 1e-4.
 
     Examples
     --------
     >>> from neuraluv.solver.config import get_config
     >>> memory_length(get_config("fast"), 40), memory_length(get_config("fast"), 10_000)
-    (10, 30)
+    (5, 30)
     """
-    return int(min(cfg.history, max(5, n // 4)))
+    return int(min(cfg.history, max(3, n // 8)))
 
 
 def row_dot(a, b):
@@ -91,11 +97,10 @@ class LBFGSMemory:
     the two-loop recursion's ``4m`` small vector operations — one in :meth:`push`, which
     reads the new pair's dots and, with ``g_next``, the next ``Sᵀg, Yᵀg`` in the same pass,
     and one in :meth:`apply` to form ``S p₁ + Y p₂``. The stored pairs of a batch of small
-    charts are tens of megabytes (47 charts × 26 rows × 9,730 parameters on cow's atlas):
-    one pass over them took 3.3 ms there, the 47 networks' forward and backward pass 11.5 ms
-    (one thread). One ring buffer of ``m``
-    slots serves all charts; a chart that did not move this round stores a zero
-    pair, which contributes nothing.
+    charts are tens of megabytes (47 charts × 26 rows × 9,730 parameters on cow's atlas, a
+    pair per 4 vertices): one pass over them took 3.3 ms there, the 47 networks' forward and
+    backward pass 11.5 ms (one thread). One ring buffer of ``m`` slots serves all charts; a
+    chart that did not move this round stores a zero pair, which contributes nothing.
 
     Examples
     --------
