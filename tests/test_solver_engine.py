@@ -5,7 +5,8 @@ import torch
 
 from neuraluv import datasets
 from neuraluv.solver import get_config, prepare_chart, solve_charts
-from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.batch import make_batch
+from neuraluv.solver.engine import optimise
 from neuraluv.solver.lbfgs import LBFGSMemory
 from neuraluv.solver.siren import forward, init_params, param_count, to_module
 
@@ -125,6 +126,34 @@ def test_compaction_keeps_the_results_of_finished_charts():
         from neuraluv.metrics import distortion_metrics
 
         assert distortion_metrics(p.Vn, p.F, r.best_uv[k, :n])["flips"] == 0
+
+
+def test_a_compacted_batch_padded_to_its_largest_chart_evaluates_the_same_maps_and_losses():
+    """``subset_batch(trim=True)`` drops the padding rows past the largest kept chart and re-indexes the faces: the kept
+    charts' maps, losses and gradients are those of the untrimmed subset."""
+    from neuraluv.solver.energy import chart_objective
+    from neuraluv.solver.batch import subset_batch
+    from neuraluv.solver.siren import flat_grad, leaves
+
+    charts = [datasets.spherical_cap(3), datasets.glove(res=2), datasets.disk(2), datasets.spherical_cap(2)]
+    cfg = get_config("fast")
+    batch = make_batch([prepare_chart(V, F, cfg) for V, F in charts])
+    keep = np.array([0, 2, 3])
+    assert batch.sizes[keep].max() < batch.n  # the glove, the largest, leaves
+    out = []
+    for trim in (False, True):
+        sub = subset_batch(batch, keep, trim=trim)
+        theta = init_params([0, 1, 2], sub.X.shape[2], cfg, residual=True)
+        th = leaves(theta, sub.X.shape[2], cfg.width, cfg.n_layers)
+        u = forward(th, sub.X, sub.base, width=cfg.width, n_layers=cfg.n_layers, omega0=float(cfg.omega0))
+        o = chart_objective(u.reshape(-1, 2), sub.F, sub.dC_inv, sub.w, sub.face_chart, sub.B,
+                            torch.full((sub.B,), 1.0, dtype=torch.float64), cfg.eps_J, cfg.eps)
+        o.loss.sum().backward()
+        out.append((sub.n, u.detach(), o.loss.detach(), flat_grad(th)))
+    (n0, u0, l0, g0), (n1, u1, l1, g1) = out
+    assert n1 == batch.sizes[keep].max() < n0
+    assert torch.allclose(u1, u0[:, :n1]) and torch.allclose(l1, l0, rtol=1e-6) and torch.allclose(g1, g0, rtol=1e-4,
+                                                                                                     atol=1e-7)
 
 
 def test_deadline_stops_every_chart_with_a_valid_map():

@@ -6,7 +6,8 @@ import torch
 from neuraluv import datasets
 from neuraluv.solver import get_config, prepare_chart, solve_chart, solve_charts
 from neuraluv.solver.energy import chart_objective
-from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.batch import make_batch
+from neuraluv.solver.engine import optimise
 from neuraluv.solver.vertex import VertexMap, forward, init_params, leaves
 
 

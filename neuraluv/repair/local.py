@@ -18,7 +18,7 @@ the region overlapping another of the island):
 2. **the neural solver on the region with its ring pinned**, from a Tutte map of the region inside its
    pinned ring (when that start is valid): the paper's SIREN reparameterization with LBO features, residual
    on the start, every step validity-checked; the pinned rows are held by a zero mask on the network's
-   output (:class:`~neuraluv.solver.engine.ChartBatch`);
+   output (:class:`~neuraluv.solver.batch.ChartBatch`);
 3. **the whole island, untangled** with a free boundary (every row moves);
 4. otherwise the caller re-solves the whole island as a chart (the last resort).
 """

@@ -7,6 +7,7 @@
 ``vertex``         the per-vertex control (``param="vertex"``): free UVs, the same objective and checked steps
 ``energy``         Jacobians in torch, the C² extension, E_SD, barrier, objective
 ``result``         :class:`ChartResult`, :class:`Stop` (why a solve ended; torch-free)
+``batch``          a batch of prepared charts, padded to one vertex count (the engine's input)
 ``engine``         the batched, validity-checked optimisation loop (Adam, L-BFGS)
 ``lbfgs``          L-BFGS memory of a batch in compact form
 ``trace``          the per-round trace of a batch, in preallocated chunks

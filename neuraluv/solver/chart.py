@@ -31,7 +31,8 @@ from neuraluv.metrics import distortion_metrics, metrics_from_jacobians
 from neuraluv.relax import slim_relax_until, slim_relax_while
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
-from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.batch import make_batch
+from neuraluv.solver.engine import optimise
 from neuraluv.solver.result import ChartResult, Stop
 from neuraluv.solver.siren import Siren
 from neuraluv.solver.vertex import chart_module

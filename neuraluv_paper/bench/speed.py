@@ -46,7 +46,8 @@ from neuraluv.meshfix import repair_mesh
 from neuraluv.metrics import distortion_metrics
 from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
-from neuraluv.solver.engine import make_batch, optimise
+from neuraluv.solver.batch import make_batch
+from neuraluv.solver.engine import optimise
 from neuraluv.solver.siren import flat_grad, forward, init_params, leaves
 from neuraluv.topology import face_components, is_disk_like, submesh
 from neuraluv_paper.bench.common import combine_metrics, peak_rss_mb, slim_reference
