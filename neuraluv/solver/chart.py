@@ -434,7 +434,12 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     each operation, not by arithmetic, and a second torch thread speeds one batch
     up little. Two batches, each on one thread, keep both cores busy. Measured on
     the 64 neural charts of cow's atlas (2 cores, 4 batches): one after the other
-    with 2 threads 17.6 s, two at a time with 1 thread each 14.0 s.
+    with 2 threads 17.6 s, two at a time with 1 thread each 14.0 s. The two
+    threads share one interpreter lock, which every torch call gives up and takes
+    back: on cow's four batches (one thread each) the threads switched 66–86
+    thousand times (one thread alone: 19) and took 6.4–6.7 s, where two processes
+    took 4.5–5.0 s and one thread 6.5–9 s (issue 28; not done: processes need
+    the batches sent to them and a safe start with torch loaded).
     """
     t_start = time.perf_counter()
     cfg = get_config(config)
