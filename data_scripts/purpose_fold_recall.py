@@ -1,15 +1,16 @@
 #!/usr/bin/env python
 """How many of the faces a damage reverses the texture purpose calls folds (not intent), on real layouts.
 
-    NEURALUV_DATA=.cache/neuraluv-data python data_scripts/purpose_fold_recall.py
+    NEURALUV_DATA=.cache/neuraluv-data python data_scripts/purpose_fold_recall.py [FILE ...]
 
-For eight authored assets (``make data``), six seeds each of a 1-ring and a 3-ring local fold
+For eight authored assets (``make data``; or the layout files named), six seeds each of a 1-ring and a 3-ring local fold
 (strength 1.5 / 2.5, on the largest island) and of 2% vertex noise (:mod:`neuraluv_paper.damage`):
 the faces whose det J changed sign, and how many of them :func:`~neuraluv.layout.purpose.layout_intent`
 calls folds or degenerate faces (the rest it would take for a mirrored or stacked shell). The figure
 quoted in :mod:`neuraluv.layout.purpose` and the README.
 """
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -23,15 +24,16 @@ ASSETS = ["bl_spot_seams_unwrap.obj", "capsule.obj", "bl_spot_udim.obj", "fuze.o
           "Duck.glb", "tube.obj", "ico4uv.obj"]
 
 
-def main():
+def main(files=()):
     tot = miss = n = 0
     by_asset = {}
-    for name in ASSETS:
+    for name in files or ASSETS:
         try:
-            path = datasets.authored_path(name)
+            path = name if files else datasets.authored_path(name)
         except datasets.DataMissing as exc:
             print(f"purpose_fold_recall: {exc}")
             return 2
+        name = Path(name).name
         V, F, UV, FUV, _ = read_layout(path)
         f0 = layout_facts(V, F, UV, FUV)
         big = np.argmax(np.bincount(f0.label[f0.label >= 0]))
@@ -64,4 +66,4 @@ def main():
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(sys.argv[1:]))
