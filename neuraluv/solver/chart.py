@@ -438,7 +438,8 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     threads share one interpreter lock, which every torch call gives up and takes
     back: on cow's four batches (one thread each) the threads switched 66–86
     thousand times (one thread alone: 19) and took 6.4–6.7 s, where two processes
-    took 4.5–5.0 s and one thread 6.5–9 s (issue 28; not done: processes need
+    took 4.5–5.0 s (3 alternating rounds; threads in other runs 5.4–7.4 s, a
+    noisy machine) and one thread 6.5–9 s (issue 28; not done: processes need
     the batches sent to them and a safe start with torch loaded).
     """
     t_start = time.perf_counter()
