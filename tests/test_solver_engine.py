@@ -68,15 +68,17 @@ def test_the_dots_a_push_reads_for_the_next_direction_are_those_apply_would_read
     assert torch.allclose(mem.apply(g[[0, 2]], after_push=True)[0], mem.apply(g[[0, 2]])[0], rtol=1e-12, atol=1e-12)
 
 
-def test_concurrent_batches_give_the_results_of_one_batch_after_another():
-    """Batches run in threads (``workers``) do not depend on each other: the same maps, seeds and traces."""
+@pytest.mark.parametrize("pool", ["thread", "process"])
+def test_concurrent_batches_give_the_results_of_one_batch_after_another(pool):
+    """Batches run at once (``workers``, in threads or forked processes) do not depend on each other: the same maps,
+    seeds and traces."""
     charts = [datasets.spherical_cap(3), datasets.spherical_cap(4), datasets.glove(res=2), datasets.disk(6)]
     cfg = get_config("fast", iterations=60, retries=0)
     old = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
         one = solve_charts(charts, cfg, device="cpu", workers=1, max_batch=1)
-        two = solve_charts(charts, cfg, device="cpu", workers=2, max_batch=1)
+        two = solve_charts(charts, cfg, device="cpu", workers=2, max_batch=1, pool=pool)
     finally:
         torch.set_num_threads(old)
     assert torch.get_num_threads() == old

@@ -9,6 +9,7 @@
 ``result``         :class:`ChartResult`, :class:`Stop` (why a solve ended; torch-free)
 ``batch``          a batch of prepared charts, padded to one vertex count (the engine's input)
 ``engine``         the batched, validity-checked optimisation loop (Adam, L-BFGS)
+``pool``           several batches at once: forked worker processes or threads
 ``lbfgs``          L-BFGS memory of a batch in compact form
 ``trace``          the per-round trace of a batch, in preallocated chunks
 ``chart``          :func:`prepare_chart`, :func:`solve_chart`, :func:`solve_charts`

@@ -33,6 +33,7 @@ from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
 from neuraluv.solver.batch import make_batch
 from neuraluv.solver.engine import optimise
+from neuraluv.solver.pool import batch_pool, batch_workers, map_batches
 from neuraluv.solver.result import ChartResult, Stop
 from neuraluv.solver.siren import Siren
 from neuraluv.solver.vertex import chart_module
@@ -341,50 +342,9 @@ def _result(cfg, prep, attempts, log, t_start, device):
     )
 
 
-#: Batches optimised at once on the CPU (:func:`solve_charts`, ``workers="auto"``), when torch may use as many threads.
-BATCH_WORKERS = 2
-
-
-def batch_workers(workers, device):
-    """Batches to optimise at once: ``workers``, or for ``"auto"`` :data:`BATCH_WORKERS` where torch may use that many
-    CPU threads (1 on CUDA, or where fewer threads are allowed).
-
-    Examples
-    --------
-    >>> batch_workers(3, "cpu"), batch_workers("auto", "cuda")
-    (3, 1)
-    """
-    if workers != "auto":
-        return max(1, int(workers))
-    if torch.device(device).type != "cpu":
-        return 1
-    return BATCH_WORKERS if torch.get_num_threads() >= BATCH_WORKERS else 1
-
-
-def _map_batches(run, groups, a, n_workers, cost):
-    """``(idx, run(idx, a))`` for every group: in order on one worker, else in threads, costliest group first,
-    each thread with its share of torch's threads; yielded as the groups finish."""
-    if n_workers <= 1 or len(groups) <= 1:
-        for idx in groups:
-            yield idx, run(idx, a)
-        return
-    from concurrent.futures import ThreadPoolExecutor, as_completed
-
-    n_workers = min(n_workers, len(groups))
-    old = torch.get_num_threads()
-    torch.set_num_threads(max(1, old // n_workers))
-    try:
-        with ThreadPoolExecutor(n_workers, thread_name_prefix="neuraluv-batch") as ex:
-            order = sorted(range(len(groups)), key=lambda g: -cost[g])
-            futures = {ex.submit(run, groups[g], a): groups[g] for g in order}
-            for fut in as_completed(futures):
-                yield futures[fut], fut.result()
-    finally:
-        torch.set_num_threads(old)
-
-
 def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False, callback=None, labels=None,
-                 check=True, deadline=None, max_rows=60000, max_batch=512, preps=None, theta0=None, workers="auto"):
+                 check=True, deadline=None, max_rows=60000, max_batch=512, preps=None, theta0=None, workers="auto",
+                 pool="auto"):
     """Flatten many disk-like charts, their networks optimised together in batches.
 
     Parameters
@@ -417,10 +377,13 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
         start afresh.
     workers : int or "auto"
         Batches optimised at once, each in its own thread with ``threads // workers``
-        torch threads. ``"auto"``: :data:`BATCH_WORKERS` on the CPU when torch may use
+        torch threads. ``"auto"``: :data:`~neuraluv.solver.pool.BATCH_WORKERS` on the CPU when torch may use
         that many threads (``torch.get_num_threads()``, which ``--threads`` and
         :func:`~neuraluv.solver.device.auto_threads` set), else 1. Each batch's result
         does not depend on the others, nor on their order.
+    pool : ``"auto"``, ``"process"`` or ``"thread"``
+        Where ``workers`` batches run at once: forked processes (``"auto"`` on Linux, CPU) or threads
+        (:func:`~neuraluv.solver.pool.batch_pool`).
 
     Returns
     -------
@@ -432,15 +395,13 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     A round of a batch (:func:`~neuraluv.solver.engine.optimise`) is a few hundred
     small tensor operations: for the charts of an atlas it is bound by the cost of
     each operation, not by arithmetic, and a second torch thread speeds one batch
-    up little. Two batches, each on one thread, keep both cores busy. Measured on
-    the 64 neural charts of cow's atlas (2 cores, 4 batches): one after the other
-    with 2 threads 17.6 s, two at a time with 1 thread each 14.0 s. The two
-    threads share one interpreter lock, which every torch call gives up and takes
-    back: on cow's four batches (one thread each) the threads switched 66–86
-    thousand times (one thread alone: 19) and took 6.4–6.7 s, where two processes
-    took 4.5–5.0 s (3 alternating rounds; threads in other runs 5.4–7.4 s, a
-    noisy machine) and one thread 6.5–9 s (issue 28; not done: processes need
-    the batches sent to them and a safe start with torch loaded).
+    up little. Two batches, each on one thread, keep both cores busy. In two
+    threads of one process they wait on each other: every torch call gives up the
+    interpreter lock and takes it back (on cow's atlas 63–88 thousand voluntary
+    context switches per run); forked processes do not (about 250). ``neuraluv
+    atlas cow.off``, 2 cores, alternating, 3 rounds: threads 12.7 / 13.9 / 14.4 s
+    (routing 7.4 / 8.9 / 9.1 s), processes 9.6 / 10.8 / 10.7 s (routing 5.4 / 6.1 /
+    5.5 s), the same output bytes (issue 28).
     """
     t_start = time.perf_counter()
     cfg = get_config(config)
@@ -464,6 +425,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     todo = list(range(len(preps)))
     chart_time = np.zeros(len(preps))
     n_workers = batch_workers(workers, dev)
+    how = batch_pool(pool, dev)
 
     def run(idx, a):
         tb = time.perf_counter()
@@ -478,7 +440,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
             break
         groups = [[todo[j] for j in g] for g in batch_plan([len(preps[i].X) for i in todo], max_rows, max_batch)]
         rows = [len(g) * max(len(preps[i].X) for i in g) for g in groups]   # padded rows: the costliest run first
-        for idx, (res, dt) in _map_batches(run, groups, a, n_workers, rows):
+        for idx, (res, dt) in map_batches(run, groups, a, n_workers, rows, how):
             for k, i in enumerate(idx):
                 p = preps[i]
                 uv = res.best_uv[k, : len(p.X)] * p.scale

@@ -1,0 +1,198 @@
+"""Several solver batches at once: in forked worker processes, or in threads.
+
+A round of a batch is a few hundred small torch calls, each of which gives up
+the interpreter lock and takes it back. Two batches in two threads of one
+process therefore wait on each other; two processes do not. On Linux, CPU
+batches are optimised in **forked** children (:func:`map_batches`,
+``pool="process"``): the child inherits the prepared charts and torch already
+loaded (no pickling of the inputs, no second import), runs one batch on its
+share of torch's threads, sends the result back through a pipe and ends with
+``os._exit`` (nothing of the parent's is flushed or torn down twice). A child
+that ends without a result (killed, out of memory) has its batch run again in
+the parent, so a solve never loses a batch to its pool.
+"""
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import sys
+import warnings
+
+import torch
+
+__all__ = ["BATCH_WORKERS", "batch_workers", "batch_pool", "map_batches"]
+
+#: Batches optimised at once on the CPU (``workers="auto"``), when torch may use as many threads.
+BATCH_WORKERS = 2
+
+
+def batch_workers(workers, device):
+    """Batches to optimise at once: ``workers``, or for ``"auto"`` :data:`BATCH_WORKERS` where torch may use that many
+    CPU threads (1 on CUDA, or where fewer threads are allowed).
+
+    Examples
+    --------
+    >>> batch_workers(3, "cpu"), batch_workers("auto", "cuda")
+    (3, 1)
+    """
+    if workers != "auto":
+        return max(1, int(workers))
+    if torch.device(device).type != "cpu":
+        return 1
+    return BATCH_WORKERS if torch.get_num_threads() >= BATCH_WORKERS else 1
+
+
+def batch_pool(pool, device):
+    """How batches run at once: ``"process"`` (forked children) or ``"thread"``.
+
+    ``"auto"`` is ``"process"`` on Linux for CPU batches (where ``fork`` is safe with torch's
+    CPU thread pools once a child uses one thread per batch), else ``"thread"``; the environment
+    variable ``NEURALUV_BATCH_POOL`` (``process`` or ``thread``) overrides ``"auto"``.
+
+    Examples
+    --------
+    >>> batch_pool("thread", "cpu"), batch_pool("auto", "cuda")
+    ('thread', 'thread')
+    """
+    if pool not in ("auto", "process", "thread"):
+        raise ValueError(f"pool must be 'auto', 'process' or 'thread', not {pool!r}")
+    if pool == "auto":
+        pool = os.environ.get("NEURALUV_BATCH_POOL", "auto")
+        if pool not in ("auto", "process", "thread"):
+            raise ValueError(f"NEURALUV_BATCH_POOL must be 'process' or 'thread', not {pool!r}")
+    if pool == "thread" or torch.device(device).type != "cpu" or not hasattr(os, "fork"):
+        return "thread"
+    if pool == "auto" and not sys.platform.startswith("linux"):
+        return "thread"
+    return "process"
+
+
+def map_batches(run, groups, a, n_workers, cost, pool="thread"):
+    """``(idx, run(idx, a))`` for every group, yielded as the groups finish.
+
+    Parameters
+    ----------
+    run : callable
+        ``run(idx, a)`` optimises the batch of charts ``idx`` (attempt ``a``); its result must pickle
+        for ``pool="process"``.
+    groups : list of list of int
+    a : int
+    n_workers : int
+        Batches at once; 1 (or one group): in order, in this thread.
+    cost : list of float
+        Per group; the costliest groups start first.
+    pool : ``"process"`` or ``"thread"`` (see :func:`batch_pool`)
+
+    Notes
+    -----
+    Every worker gets ``torch.get_num_threads() // n_workers`` threads (at least one). Each
+    batch's result depends only on its own charts, so the pools give the same results.
+
+    Examples
+    --------
+    >>> run = lambda idx, a: sum(idx) + a
+    >>> sorted(map_batches(run, [[0, 1], [2], [3, 4]], 10, 2, [2, 1, 2], pool="process"))
+    [([0, 1], 11), ([2], 12), ([3, 4], 17)]
+    """
+    if n_workers <= 1 or len(groups) <= 1:
+        for idx in groups:
+            yield idx, run(idx, a)
+        return
+    n_workers = min(n_workers, len(groups))
+    order = sorted(range(len(groups)), key=lambda g: -cost[g])
+    old = torch.get_num_threads()
+    threads = max(1, old // n_workers)
+    if pool == "process":
+        yield from _forked(run, [groups[g] for g in order], a, n_workers, threads)
+        return
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
+    torch.set_num_threads(threads)
+    try:
+        with ThreadPoolExecutor(n_workers, thread_name_prefix="neuraluv-batch") as ex:
+            futures = {ex.submit(run, groups[g], a): groups[g] for g in order}
+            for fut in as_completed(futures):
+                yield futures[fut], fut.result()
+    finally:
+        torch.set_num_threads(old)
+
+
+def _child(run, idx, a, threads, w):
+    """In a forked child: run one batch, write ``(ok, result or exception)`` to fd ``w``, end without teardown."""
+    code = 0
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)   # the parent handles Ctrl-C and ends its children
+        torch.set_num_threads(threads)
+        try:
+            msg = (True, run(idx, a))
+        except Exception as exc:                       # sent to the parent, raised there
+            msg = (False, exc)
+        try:
+            data = pickle.dumps(msg, protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception as exc:                       # an unpicklable result or exception
+            data = pickle.dumps((False, RuntimeError(f"batch worker: {type(exc).__name__}: {exc}")))
+        with os.fdopen(w, "wb") as f:
+            f.write(data)
+    except BaseException:
+        code = 1
+    finally:
+        os._exit(code)
+
+
+def _forked(run, groups, a, n_workers, threads):
+    """Run ``groups`` in at most ``n_workers`` forked children at once; yield ``(idx, result)`` as they finish."""
+    import selectors
+
+    sel = selectors.DefaultSelector()
+    todo = list(groups)
+    running = {}                                       # read fd -> (pid, idx, chunks)
+
+    def start(idx):
+        r, w = os.pipe()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)   # Python 3.12+: fork of a process with threads
+            pid = os.fork()
+        if pid == 0:                                   # pragma: no cover - the child never returns
+            os.close(r)
+            _child(run, idx, a, threads, w)
+        os.close(w)
+        running[r] = (pid, idx, [])
+        sel.register(r, selectors.EVENT_READ)
+
+    try:
+        while todo or running:
+            while todo and len(running) < n_workers:
+                start(todo.pop(0))
+            for key, _ in sel.select():
+                r = key.fd
+                pid, idx, chunks = running[r]
+                chunk = os.read(r, 1 << 20)
+                if chunk:
+                    chunks.append(chunk)
+                    continue
+                sel.unregister(r)
+                os.close(r)
+                del running[r]
+                _, status = os.waitpid(pid, 0)
+                try:
+                    ok, value = pickle.loads(b"".join(chunks)) if chunks else (None, None)
+                except Exception:
+                    ok = None
+                if ok is None:                         # the child died without a result: run it here
+                    warnings.warn(f"a batch worker process ended without a result (wait status {status}); "
+                                  "its batch is run again in this process", RuntimeWarning, stacklevel=2)
+                    yield idx, run(idx, a)
+                elif ok:
+                    yield idx, value
+                else:
+                    raise value
+    finally:
+        for r, (pid, _, _) in running.items():          # interrupted or failed: end the other children
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except OSError:
+                pass
+            os.close(r)
+        sel.close()
