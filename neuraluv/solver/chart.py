@@ -376,11 +376,11 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
         an earlier solve of the same prepared chart: the solve goes on from there); retries
         start afresh.
     workers : int or "auto"
-        Batches optimised at once, each in its own thread with ``threads // workers``
-        torch threads. ``"auto"``: :data:`~neuraluv.solver.pool.BATCH_WORKERS` on the CPU when torch may use
-        that many threads (``torch.get_num_threads()``, which ``--threads`` and
-        :func:`~neuraluv.solver.device.auto_threads` set), else 1. Each batch's result
-        does not depend on the others, nor on their order.
+        Batches optimised at once (:func:`~neuraluv.solver.pool.batch_workers`); ``"auto"`` on the CPU:
+        as many as torch may use threads (``torch.get_num_threads()``, which ``--threads`` and
+        :func:`~neuraluv.solver.device.auto_threads` set), each forked child on one thread, or
+        :data:`~neuraluv.solver.pool.BATCH_WORKERS` threads. Each batch's result does not depend on
+        the others, nor on their order.
     pool : ``"auto"``, ``"process"`` or ``"thread"``
         Where ``workers`` batches run at once: forked processes (``"auto"`` on Linux, CPU) or threads
         (:func:`~neuraluv.solver.pool.batch_pool`).
@@ -424,8 +424,8 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
             bar = tqdm(total=len(preps), desc="charts", leave=False, dynamic_ncols=True)
     todo = list(range(len(preps)))
     chart_time = np.zeros(len(preps))
-    n_workers = batch_workers(workers, dev)
     how = batch_pool(pool, dev)
+    n_workers = batch_workers(workers, dev, how)
 
     def run(idx, a):
         tb = time.perf_counter()

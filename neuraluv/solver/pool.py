@@ -5,11 +5,12 @@ the interpreter lock and takes it back. Two batches in two threads of one
 process therefore wait on each other; two processes do not. On Linux, CPU
 batches are optimised in **forked** children (:func:`map_batches`,
 ``pool="process"``): the child inherits the prepared charts and torch already
-loaded (no pickling of the inputs, no second import), runs one batch on its
-share of torch's threads, sends the result back through a pipe and ends with
-``os._exit`` (nothing of the parent's is flushed or torn down twice). A child
-that ends without a result (killed, out of memory) has its batch run again in
-the parent, so a solve never loses a batch to its pool.
+loaded (no pickling of the inputs, no second import), runs one batch on one
+torch thread (GNU OpenMP's pool does not survive ``fork``), sends the result
+back through a pipe and ends with ``os._exit`` (nothing of the parent's is
+flushed or torn down twice); there are as many children as torch may use
+threads. A child that ends without a result (killed, out of memory) has its
+batch run again in the parent, so a solve never loses a batch to its pool.
 """
 from __future__ import annotations
 
@@ -27,9 +28,10 @@ __all__ = ["BATCH_WORKERS", "batch_workers", "batch_pool", "map_batches"]
 BATCH_WORKERS = 2
 
 
-def batch_workers(workers, device):
-    """Batches to optimise at once: ``workers``, or for ``"auto"`` :data:`BATCH_WORKERS` where torch may use that many
-    CPU threads (1 on CUDA, or where fewer threads are allowed).
+def batch_workers(workers, device, pool="thread"):
+    """Batches to optimise at once: ``workers``, or for ``"auto"`` on the CPU where torch may use several threads:
+    one per torch thread in forked processes (``pool="process"``, each child on one thread), else
+    :data:`BATCH_WORKERS` threads; 1 on CUDA or where torch may use one thread.
 
     Examples
     --------
@@ -38,9 +40,10 @@ def batch_workers(workers, device):
     """
     if workers != "auto":
         return max(1, int(workers))
-    if torch.device(device).type != "cpu":
+    n = torch.get_num_threads()
+    if torch.device(device).type != "cpu" or n < 2:
         return 1
-    return BATCH_WORKERS if torch.get_num_threads() >= BATCH_WORKERS else 1
+    return n if pool == "process" else min(BATCH_WORKERS, n)
 
 
 def batch_pool(pool, device):
@@ -86,8 +89,10 @@ def map_batches(run, groups, a, n_workers, cost, pool="thread"):
 
     Notes
     -----
-    Every worker gets ``torch.get_num_threads() // n_workers`` threads (at least one). Each
-    batch's result depends only on its own charts, so the pools give the same results.
+    A thread worker gets ``torch.get_num_threads() // n_workers`` torch threads (at least one); a
+    forked child always one: GNU OpenMP's thread pool does not survive ``fork``, and a child that
+    starts a parallel region after its parent used one can hang (pytorch issues 17199, 58962).
+    Each batch's result depends only on its own charts, so the pools give the same results.
 
     Examples
     --------
@@ -101,11 +106,11 @@ def map_batches(run, groups, a, n_workers, cost, pool="thread"):
         return
     n_workers = min(n_workers, len(groups))
     order = sorted(range(len(groups)), key=lambda g: -cost[g])
+    if pool == "process":
+        yield from _forked(run, [groups[g] for g in order], a, n_workers)
+        return
     old = torch.get_num_threads()
     threads = max(1, old // n_workers)
-    if pool == "process":
-        yield from _forked(run, [groups[g] for g in order], a, n_workers, threads)
-        return
     from concurrent.futures import ThreadPoolExecutor, as_completed
 
     torch.set_num_threads(threads)
@@ -118,12 +123,12 @@ def map_batches(run, groups, a, n_workers, cost, pool="thread"):
         torch.set_num_threads(old)
 
 
-def _child(run, idx, a, threads, w):
-    """In a forked child: run one batch, write ``(ok, result or exception)`` to fd ``w``, end without teardown."""
+def _child(run, idx, a, w):
+    """In a forked child: run one batch on one torch thread, write ``(ok, result or exception)`` to fd ``w``, end without teardown."""
     code = 0
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)   # the parent handles Ctrl-C and ends its children
-        torch.set_num_threads(threads)
+        torch.set_num_threads(1)
         try:
             msg = (True, run(idx, a))
         except Exception as exc:                       # sent to the parent, raised there
@@ -140,7 +145,7 @@ def _child(run, idx, a, threads, w):
         os._exit(code)
 
 
-def _forked(run, groups, a, n_workers, threads):
+def _forked(run, groups, a, n_workers):
     """Run ``groups`` in at most ``n_workers`` forked children at once; yield ``(idx, result)`` as they finish."""
     import selectors
 
@@ -155,7 +160,7 @@ def _forked(run, groups, a, n_workers, threads):
             pid = os.fork()
         if pid == 0:                                   # pragma: no cover - the child never returns
             os.close(r)
-            _child(run, idx, a, threads, w)
+            _child(run, idx, a, w)
         os.close(w)
         running[r] = (pid, idx, [])
         sel.register(r, selectors.EVENT_READ)
