@@ -2,6 +2,7 @@
 import os
 import signal
 
+import numpy as np
 import pytest
 import torch
 
@@ -52,3 +53,26 @@ def test_pool_choice(monkeypatch):
     monkeypatch.setenv("NEURALUV_BATCH_POOL", "nope")
     with pytest.raises(ValueError, match="NEURALUV_BATCH_POOL"):
         batch_pool("auto", "cpu")
+
+
+def test_charts_prepared_in_forked_children_equal_those_prepared_here():
+    from neuraluv import datasets
+    from neuraluv.solver.chart import prepare_chart, prepare_charts
+
+    charts = [datasets.spherical_cap(3), datasets.disk(5), datasets.glove(res=2)]
+    here = [prepare_chart(V, F, "fast") for V, F in charts]
+    there = prepare_charts(charts, "fast", workers=2, pool="process")
+    for a, b in zip(here, there):
+        assert np.array_equal(a.X, b.X) and np.array_equal(a.u_start, b.u_start) and a.start == b.start
+
+
+def test_a_chart_that_cannot_be_prepared_gets_its_error_in_its_place():
+    from neuraluv import datasets
+    from neuraluv.errors import TopologyError
+    from neuraluv.solver.chart import prepare_charts
+
+    cap, closed = datasets.spherical_cap(3), datasets.sphere()   # a closed surface is no disk
+    out = prepare_charts([cap, closed], "fast", workers=2, pool="process", errors="return")
+    assert out[0].X.shape[0] == len(cap[0]) and isinstance(out[1], Exception)
+    with pytest.raises(TopologyError):
+        prepare_charts([cap, closed], "fast", workers=2, pool="process")

@@ -377,7 +377,7 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
     >>> [(x.route, x.method, x.metrics["flips"]) for x in c]
     [('neural', 'neural', 0), ('exact', 'exact-unfold', 0)]
     """
-    from neuraluv.solver.chart import prepare_chart, solve_charts
+    from neuraluv.solver.chart import prepare_charts, solve_charts
 
     cfg = get_config(config)
     if start_slim is not None:
@@ -387,7 +387,7 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
     known = [getattr(c, "mesh", None) for c in candidates]  # the chart meshes the candidates' disk tests built
     for level in range(splits + 1):
         out, retry = _route_round(V, F, todo, cfg, seed, device, deadline, progress and level == 0, t0,
-                                  prepare_chart, solve_charts, last=level == splits,
+                                  prepare_charts, solve_charts, last=level == splits,
                                   known=known if level == 0 else None)
         done += [c for c in out if c is not None]
         todo = []
@@ -404,7 +404,7 @@ def route_charts(V, F, candidates, config="fast", *, seed=0, device="cpu", deadl
     return done
 
 
-def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_chart, solve_charts, last, known=None):
+def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_charts, solve_charts, last, known=None):
     """One routing round; returns (charts, [(fidx, source, why) to split and retry])."""
     out = [None] * len(todo)
     retry, retried = [], set()
@@ -412,6 +412,7 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
     known = known or [None] * len(todo)
     meshes = [m if m is not None else chart_mesh(V, F, fidx)   # bow-ties split, holes filled (fillers dropped later)
               for (fidx, _, _), m in zip(todo, known)]
+    need = []
     for k, (fidx, src, note) in enumerate(todo):
         vi, Fl, Vx, Fx = meshes[k]
         uv = unfold_tree(V[vi], Fl) if len(Fx) == 0 else None
@@ -420,16 +421,22 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             continue
         if uv is not None:
             why[k] = "exact unfold overlaps itself; "
-        try:
-            prep = prepare_chart(np.vstack([V[vi], Vx]), np.vstack([Fl, Fx]), cfg, check=False, label=f"chart {k}")
-            if _isometric(prep):
-                uv = prep.u_start[:len(vi)] * prep.scale   # the fillers' vertices come last: dropped
-                out[k] = _finish(AtlasChart(fidx, "exact", "isometric-start", "", src, [(fidx, vi, Fl, uv)]), V, t0)
-                continue
+        need.append(k)
+    # features and starts of every chart at once, over the solver's batch workers
+    prepared = prepare_charts([(np.vstack([V[meshes[k][0]], meshes[k][2]]), np.vstack([meshes[k][1], meshes[k][3]]))
+                               for k in need], cfg, labels=[f"chart {k}" for k in need], check=False, errors="return")
+    for k, prep in zip(need, prepared):
+        fidx, src, _ = todo[k]
+        vi, Fl, _, _ = meshes[k]
+        if isinstance(prep, Exception):  # degenerate input for the eigensolver etc.: a marked fallback, never a crash
+            msg = str(prep).splitlines()[0] if str(prep) else ""
+            why[k] = why.get(k, "") + f"neural solver error: {type(prep).__name__}: {msg}"
+        elif _isometric(prep):
+            uv = prep.u_start[:len(vi)] * prep.scale   # the fillers' vertices come last: dropped
+            out[k] = _finish(AtlasChart(fidx, "exact", "isometric-start", "", src, [(fidx, vi, Fl, uv)]), V, t0)
+        else:
             preps.append(prep)
             idx.append(k)
-        except Exception as exc:  # degenerate input for the eigensolver etc.: a marked fallback, never a crash
-            why[k] = why.get(k, "") + f"neural solver error: {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
     results, simple = [], []
     if idx and (deadline is None or time.perf_counter() < deadline):
         results = solve_charts(None, cfg, preps=preps, seed=seed, device=device, deadline=deadline, progress=progress)

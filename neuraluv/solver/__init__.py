@@ -12,7 +12,7 @@
 ``pool``           several batches at once: forked worker processes or threads
 ``lbfgs``          L-BFGS memory of a batch in compact form
 ``trace``          the per-round trace of a batch, in preallocated chunks
-``chart``          :func:`prepare_chart`, :func:`solve_chart`, :func:`solve_charts`
+``chart``          :func:`prepare_chart`, :func:`prepare_charts`, :func:`solve_chart`, :func:`solve_charts`
 ``film``           UV snapshots of a solve through its callback (the notebooks' film strips)
 =================  ==========================================================
 
@@ -29,11 +29,11 @@ from neuraluv.lazy import lazy_exports
 from neuraluv.solver.config import PRESET_HELP, PRESETS, SolverConfig, get_config
 
 __all__ = ["SolverConfig", "PRESETS", "PRESET_HELP", "get_config", "ChartResult", "PreparedChart", "prepare_chart",
-           "solve_chart", "solve_charts", "build_network", "resolve_device", "torch_threads", "Stop"]
+           "prepare_charts", "solve_chart", "solve_charts", "build_network", "resolve_device", "torch_threads", "Stop"]
 
 _LAZY = {
     "ChartResult": "result", "Stop": "result", "PreparedChart": "chart", "prepare_chart": "chart", "solve_chart": "chart",
-    "solve_charts": "chart",
+    "prepare_charts": "chart", "solve_charts": "chart",
     "build_network": "chart", "resolve_device": "device", "torch_threads": "device",
 }
 

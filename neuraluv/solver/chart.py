@@ -33,7 +33,7 @@ from neuraluv.solver.config import get_config
 from neuraluv.solver.device import resolve_device
 from neuraluv.solver.batch import make_batch
 from neuraluv.solver.engine import optimise
-from neuraluv.solver.pool import batch_pool, batch_workers, map_batches
+from neuraluv.solver.pool import batch_pool, batch_workers, map_batches, split_even
 from neuraluv.solver.result import ChartResult, Stop
 from neuraluv.solver.siren import Siren
 from neuraluv.solver.vertex import chart_module
@@ -196,6 +196,60 @@ def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, k=None, start_
     return PreparedChart(V=V, F=F, Vn=Vn, scale=float(s), X=X, eig=eig, u_start=u0, start=start, start_metrics=m0,
                          dC_inv=dC_inv, A=A, target=_init_target(cfg, u0, eig),
                          free=None if free is None else np.asarray(free, bool))
+
+
+def prepare_charts(charts, config="fast", *, labels=None, check=True, errors="raise", workers="auto", pool="auto"):
+    """:func:`prepare_chart` of many charts, split over the batch workers (forked processes on Linux, CPU).
+
+    Parameters
+    ----------
+    charts : list of (V (n,3), F (m,3))
+    config : str or SolverConfig
+    labels : list of str, optional
+    check : bool
+        Run the disk-like test first (raises :class:`TopologyError`).
+    errors : ``"raise"`` or ``"return"``
+        ``"return"``: a chart whose preparation raises gets the exception in its place.
+    workers, pool :
+        As in :func:`solve_charts` (:func:`~neuraluv.solver.pool.batch_workers`,
+        :func:`~neuraluv.solver.pool.batch_pool`); the charts are split into groups of about
+        equal cost, ``n^1.5`` for ``n`` vertices.
+
+    Returns
+    -------
+    list of PreparedChart (or Exception)
+        In the order of ``charts``; the same as one :func:`prepare_chart` after the other.
+
+    Examples
+    --------
+    >>> from neuraluv.datasets import disk, spherical_cap
+    >>> a, b = prepare_charts([spherical_cap(3), disk(4)], "test")
+    >>> a.X.shape[0] == len(spherical_cap(3)[0]) and b.start
+    'tutte'
+    """
+    cfg = get_config(config)
+    labels = labels or [f"chart {i}" for i in range(len(charts))]
+    if errors not in ("raise", "return"):
+        raise ValueError(f"errors must be 'raise' or 'return', not {errors!r}")
+
+    def one(i):
+        try:
+            return prepare_chart(*charts[i], cfg, check=check, label=labels[i])
+        except Exception as exc:
+            if errors == "raise":
+                raise
+            return exc
+
+    how = batch_pool(pool, "cpu")
+    n_workers = batch_workers(workers, "cpu", how)
+    cost = [float(len(V)) ** 1.5 for V, _ in charts]
+    groups = split_even(cost, n_workers)
+    out = [None] * len(charts)
+    for idx, res in map_batches(lambda idx, a: [one(i) for i in idx], groups, 0, n_workers,
+                                [sum(cost[i] for i in g) for g in groups], how):
+        for i, r in zip(idx, res):
+            out[i] = r
+    return out
 
 
 def _metrics(u, F, frames):
@@ -409,7 +463,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     n_charts = len(preps) if preps is not None else len(charts)
     labels = labels or [f"chart {i}" for i in range(n_charts)]
     if preps is None:
-        preps = [prepare_chart(V, F, cfg, check=check, label=lab) for (V, F), lab in zip(charts, labels)]
+        preps = prepare_charts(charts, cfg, labels=labels, check=check, workers=workers, pool=pool)
     if callback is not None and len(preps) != 1:
         raise ValueError("callback is supported for a single chart only")
     t_prep = time.perf_counter() - t_start

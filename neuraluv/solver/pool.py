@@ -22,7 +22,7 @@ import warnings
 
 import torch
 
-__all__ = ["BATCH_WORKERS", "batch_workers", "batch_pool", "map_batches"]
+__all__ = ["BATCH_WORKERS", "batch_workers", "batch_pool", "map_batches", "split_even"]
 
 #: Batches optimised at once on the CPU (``workers="auto"``), when torch may use as many threads.
 BATCH_WORKERS = 2
@@ -69,6 +69,32 @@ def batch_pool(pool, device):
     if pool == "auto" and not sys.platform.startswith("linux"):
         return "thread"
     return "process"
+
+
+def split_even(cost, n):
+    """Items split into at most ``n`` groups of about equal total cost (largest first, each to the lightest group).
+
+    Parameters
+    ----------
+    cost : (k,) float array-like
+    n : int
+
+    Returns
+    -------
+    list of list of int
+        Non-empty groups of item indices, each costliest item first.
+
+    Examples
+    --------
+    >>> split_even([5, 1, 4, 2, 3], 2)
+    [[0, 3, 1], [2, 4]]
+    """
+    groups, load = [[] for _ in range(max(1, n))], [0.0] * max(1, n)
+    for i in sorted(range(len(cost)), key=lambda i: -cost[i]):
+        g = load.index(min(load))
+        groups[g].append(i)
+        load[g] += cost[i]
+    return [g for g in groups if g]
 
 
 def map_batches(run, groups, a, n_workers, cost, pool="thread"):
@@ -124,11 +150,15 @@ def map_batches(run, groups, a, n_workers, cost, pool="thread"):
 
 
 def _child(run, idx, a, w):
-    """In a forked child: run one batch on one torch thread, write ``(ok, result or exception)`` to fd ``w``, end without teardown."""
+    """In a forked child: run one batch on one torch thread, write ``(ok, result or exception)`` to fd ``w``, end
+    without teardown."""
     code = 0
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)   # the parent handles Ctrl-C and ends its children
         torch.set_num_threads(1)
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=1, user_api="blas")  # NumPy/SciPy's BLAS too: two spinning pools per core thrash
         try:
             msg = (True, run(idx, a))
         except Exception as exc:                       # sent to the parent, raised there
