@@ -76,3 +76,23 @@ def test_a_chart_that_cannot_be_prepared_gets_its_error_in_its_place():
     assert out[0].X.shape[0] == len(cap[0]) and isinstance(out[1], Exception)
     with pytest.raises(TopologyError):
         prepare_charts([cap, closed], "fast", workers=2, pool="process")
+
+
+def test_a_child_still_running_long_after_the_deadline_is_ended_and_its_batch_run_here(monkeypatch):
+    import time
+
+    from neuraluv.solver import pool
+
+    parent = os.getpid()
+
+    def run(idx, a):
+        if os.getpid() != parent:
+            time.sleep(600)                        # a hung child
+        return os.getpid()
+
+    monkeypatch.setattr(pool, "LATE", 0.3)
+    t = time.perf_counter()
+    with pytest.warns(RuntimeWarning, match="after the deadline"):
+        out = list(map_batches(run, [[0], [1]], 0, 2, [1, 1], pool="process", deadline=time.perf_counter()))
+    assert sorted(i for i, _ in out) == [[0], [1]] and all(pid == parent for _, pid in out)
+    assert time.perf_counter() - t < 60

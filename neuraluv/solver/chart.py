@@ -494,7 +494,7 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
             break
         groups = [[todo[j] for j in g] for g in batch_plan([len(preps[i].X) for i in todo], max_rows, max_batch)]
         rows = [len(g) * max(len(preps[i].X) for i in g) for g in groups]   # padded rows: the costliest run first
-        for idx, (res, dt) in map_batches(run, groups, a, n_workers, rows, how):
+        for idx, (res, dt) in map_batches(run, groups, a, n_workers, rows, how, deadline):
             for k, i in enumerate(idx):
                 p = preps[i]
                 uv = res.best_uv[k, : len(p.X)] * p.scale

@@ -18,11 +18,12 @@ import os
 import pickle
 import signal
 import sys
+import time
 import warnings
 
 import torch
 
-__all__ = ["BATCH_WORKERS", "batch_workers", "batch_pool", "map_batches", "split_even"]
+__all__ = ["BATCH_WORKERS", "LATE", "batch_workers", "batch_pool", "map_batches", "split_even"]
 
 #: Batches optimised at once on the CPU (``workers="auto"``), when torch may use as many threads.
 BATCH_WORKERS = 2
@@ -97,7 +98,12 @@ def split_even(cost, n):
     return [g for g in groups if g]
 
 
-def map_batches(run, groups, a, n_workers, cost, pool="thread"):
+#: Seconds past the solve's deadline after which a forked child still running is taken for hung: it is ended and
+#: its batch run again in the parent (which stops at once, at the deadline, with its start map).
+LATE = 30.0
+
+
+def map_batches(run, groups, a, n_workers, cost, pool="thread", deadline=None):
     """``(idx, run(idx, a))`` for every group, yielded as the groups finish.
 
     Parameters
@@ -112,6 +118,9 @@ def map_batches(run, groups, a, n_workers, cost, pool="thread"):
     cost : list of float
         Per group; the costliest groups start first.
     pool : ``"process"`` or ``"thread"`` (see :func:`batch_pool`)
+    deadline : float, optional
+        The solve's ``time.perf_counter()`` deadline; a forked child still running :data:`LATE`
+        seconds after it is ended, with a warning, and its batch run here.
 
     Notes
     -----
@@ -133,7 +142,7 @@ def map_batches(run, groups, a, n_workers, cost, pool="thread"):
     n_workers = min(n_workers, len(groups))
     order = sorted(range(len(groups)), key=lambda g: -cost[g])
     if pool == "process":
-        yield from _forked(run, [groups[g] for g in order], a, n_workers)
+        yield from _forked(run, [groups[g] for g in order], a, n_workers, deadline)
         return
     old = torch.get_num_threads()
     threads = max(1, old // n_workers)
@@ -175,7 +184,7 @@ def _child(run, idx, a, w):
         os._exit(code)
 
 
-def _forked(run, groups, a, n_workers):
+def _forked(run, groups, a, n_workers, deadline=None):
     """Run ``groups`` in at most ``n_workers`` forked children at once; yield ``(idx, result)`` as they finish."""
     import selectors
 
@@ -195,20 +204,35 @@ def _forked(run, groups, a, n_workers):
         running[r] = (pid, idx, [])
         sel.register(r, selectors.EVENT_READ)
 
+    def end(r):
+        pid, idx, chunks = running.pop(r)
+        sel.unregister(r)
+        os.close(r)
+        return pid, idx, chunks
+
     try:
         while todo or running:
             while todo and len(running) < n_workers:
                 start(todo.pop(0))
-            for key, _ in sel.select():
+            timeout = None if deadline is None else max(0.0, deadline + LATE - time.perf_counter())
+            events = sel.select(timeout)
+            if not events and deadline is not None and time.perf_counter() > deadline + LATE:
+                for r in list(running):                # hung: end them, run their batches here (at the deadline)
+                    pid, idx, _ = end(r)
+                    os.kill(pid, signal.SIGKILL)
+                    os.waitpid(pid, 0)
+                    warnings.warn(f"a batch worker process still ran {LATE:g} s after the deadline and was ended; "
+                                  "its batch is run again in this process", RuntimeWarning, stacklevel=2)
+                    yield idx, run(idx, a)
+                continue
+            for key, _ in events:
                 r = key.fd
                 pid, idx, chunks = running[r]
                 chunk = os.read(r, 1 << 20)
                 if chunk:
                     chunks.append(chunk)
                     continue
-                sel.unregister(r)
-                os.close(r)
-                del running[r]
+                end(r)
                 _, status = os.waitpid(pid, 0)
                 try:
                     ok, value = pickle.loads(b"".join(chunks)) if chunks else (None, None)
