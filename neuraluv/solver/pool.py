@@ -204,6 +204,11 @@ def _forked(run, groups, a, n_workers, deadline=None):
         running[r] = (pid, idx, [])
         sel.register(r, selectors.EVENT_READ)
 
+    def rerun(idx, why):
+        warnings.warn(f"a batch worker process {why}; its batch is run again in this process", RuntimeWarning,
+                      stacklevel=3)
+        return run(idx, a)
+
     def end(r):
         pid, idx, chunks = running.pop(r)
         sel.unregister(r)
@@ -221,9 +226,7 @@ def _forked(run, groups, a, n_workers, deadline=None):
                     pid, idx, _ = end(r)
                     os.kill(pid, signal.SIGKILL)
                     os.waitpid(pid, 0)
-                    warnings.warn(f"a batch worker process still ran {LATE:g} s after the deadline and was ended; "
-                                  "its batch is run again in this process", RuntimeWarning, stacklevel=2)
-                    yield idx, run(idx, a)
+                    yield idx, rerun(idx, f"still ran {LATE:g} s after the deadline and was ended")
                 continue
             for key, _ in events:
                 r = key.fd
@@ -239,9 +242,7 @@ def _forked(run, groups, a, n_workers, deadline=None):
                 except Exception:
                     ok = None
                 if ok is None:                         # the child died without a result: run it here
-                    warnings.warn(f"a batch worker process ended without a result (wait status {status}); "
-                                  "its batch is run again in this process", RuntimeWarning, stacklevel=2)
-                    yield idx, run(idx, a)
+                    yield idx, rerun(idx, f"ended without a result (wait status {status})")
                 elif ok:
                     yield idx, value
                 else:
