@@ -10,7 +10,12 @@ import numpy as np
 
 from neuraluv.jacobian import jacobians, local_frames
 
-__all__ = ["face_metrics", "distortion_metrics", "metrics_from_jacobians", "match_area", "is_valid", "corner_jacobians", "face_dets"]
+__all__ = ["face_metrics", "distortion_metrics", "metrics_from_jacobians", "match_area", "is_valid", "corner_jacobians",
+           "face_dets", "ESD_ISOMETRY"]
+
+#: The smallest area-weighted symmetric Dirichlet energy, reached exactly at an isometry:
+#: per face ``σ₁² + σ₂² + σ₁⁻² + σ₂⁻² ≥ 4``, and the weights sum to 1.
+ESD_ISOMETRY = 4.0
 
 
 def face_metrics(J):

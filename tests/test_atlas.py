@@ -226,9 +226,46 @@ def test_exact_unfold_of_strips_is_an_isometry():
     assert res.route == "exact" and res.method == "exact-unfold" and res.metrics["esd"] == pytest.approx(4.0)
 
 
+def _wound_strip(turns=1.6, n=48, rows=4):
+    """A strip wound ``turns`` times round on a sphere of radius 5 (``n`` columns of ``rows`` vertices): its plane
+    coordinates ``(x, y)`` are a flip-free map that crosses itself after one turn."""
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(rows), indexing="ij")
+    th = 2 * np.pi * turns * i / n
+    r = 1.0 + 0.12 * j + 0.25 * th / (2 * np.pi)
+    x, y = r * np.cos(th), r * np.sin(th)
+    V = np.stack([x, y, np.sqrt(25.0 - x**2 - y**2)], -1).reshape(-1, 3)
+    q = (i * rows + j)[:-1, :-1].ravel()
+    return V, np.concatenate([np.stack([q, q + rows + 1, q + rows], 1), np.stack([q, q + 1, q + rows + 1], 1)])
+
+
+def test_a_split_piece_keeps_its_parents_map_where_that_map_is_injective_on_it():
+    from neuraluv.atlas.candidates import chart_mesh
+    from neuraluv.atlas.routing import _on_parent
+
+    V, F = _wound_strip()
+    every = np.arange(len(F))
+    whole = chart_mesh(V, F, every)
+    parent = (every, whole[1], V[whole[0], :2], {})
+    assert not boundary_is_simple(V[whole[0], :2], whole[1])
+    assert _on_parent(V, every, whole, parent) is None                  # the whole strip overlaps itself there
+    half = every[F.min(1) // 4 < 24]                                      # its first 0.8 turn does not
+    m = chart_mesh(V, F, half)
+    assert np.array_equal(_on_parent(V, half, m, parent), V[m[0], :2])     # no hole: no filler vertex
+    assert _on_parent(V, half, m, None) is None
+    # a piece with a hole (closed by a filler fan while it is checked) on a flat parent map; a mirrored map flips
+    Vd, Fd = disk(n_rings=3)
+    ring = np.array([f for f in range(len(Fd)) if 0 not in Fd[f]])
+    m, pm = chart_mesh(Vd, Fd, ring), chart_mesh(Vd, Fd, np.arange(len(Fd)))
+    assert len(m[2]) == 1
+    flat = (np.arange(len(Fd)), pm[1], Vd[pm[0], :2], {})
+    uv = _on_parent(Vd, ring, m, flat)                                      # the ring's vertices, then its hub
+    assert np.array_equal(uv[:-1], Vd[m[0], :2]) and np.allclose(uv[-1], 0.0)
+    assert _on_parent(Vd, ring, m, flat[:2] + (Vd[pm[0], :2] * [1, -1], {})) is None
+
+
 @pytest.mark.slow
 def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
-    """Routing bisects a failing candidate and solves the halves before falling back."""
+    """Routing bisects a failing candidate; a half on which the failed map is no good is solved again."""
     from neuraluv.atlas import routing
 
     real = routing.boundary_is_simple
@@ -239,11 +276,18 @@ def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
         return False if len(Fl) == whole else real(UV, Fl)
 
     monkeypatch.setattr(routing, "boundary_is_simple", fails_whole)
-    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], get_config("test", iterations=20),
+    cfg = get_config("test", iterations=20)
+    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], cfg,
                                   start_slim=0)   # the Tutte start: the tiny test network improves on it
     assert len(charts) >= 2 and all(c.route in ("neural", "exact") for c in charts)
     assert sorted(np.concatenate([c.faces for c in charts]).tolist()) == list(range(len(F)))
     assert all("split after: neural map overlaps itself" in c.source for c in charts)
+    # the halves are injective on the whole chart's (flip-free) map: they keep it, no solve of their own
+    # each half is injective on the whole chart's flip-free map: its solve starts there, not at its Tutte circle
+    assert all(c.method == "neural" and c.solver["start"] == routing.PARENT_START for c in charts)
+    monkeypatch.setattr(routing, "_on_parent", lambda *a: None)
+    charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], cfg, start_slim=0)
+    assert all(c.solver["start"] == "tutte" for c in charts if c.method == "neural")
 
 
 def test_a_neural_map_whose_boundary_crosses_itself_is_solved_on_before_it_is_split(monkeypatch):

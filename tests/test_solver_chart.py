@@ -185,7 +185,7 @@ def test_det_drop_guard_bounds_every_accepted_step():
 def test_early_stop():
     """A plateau stops the run early (after half the budget); without early stopping the budget is used."""
     V, F = datasets.spherical_cap(5)
-    cfg = get_config("test", iterations=80, retries=0, early_stop=True, patience=10, tol=0.5)
+    cfg = get_config("test", iterations=80, retries=0, early_stop=True, patience=10, tol=0.05)
     res = solve_chart(V, F, cfg, device="cpu")
     assert res.stop == "early_stop" and 40 <= len(res.trace["iter"]) < 80
     full = solve_chart(V, F, replace(cfg, early_stop=False), device="cpu")

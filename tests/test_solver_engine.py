@@ -209,11 +209,39 @@ def test_a_passed_deadline_stops_every_chart_before_any_step():
 def test_early_stop_is_reported_per_chart():
     from neuraluv.solver.result import Stop
 
-    cfg = get_config("fast", iterations=300, patience=20, tol=0.05, early_after=0.0)
+    tol = 1e-3
+    cfg = get_config("fast", iterations=300, patience=20, tol=tol, early_after=0.0)
     preps = [prepare_chart(V, F, cfg) for V, F in (datasets.spherical_cap(3), datasets.disk(2))]
     r = optimise(make_batch(preps), cfg, [0, 0])
     assert r.stop == [Stop.EARLY_STOP, Stop.EARLY_STOP]
-    assert all(20 <= len(t["iter"]) < 300 for t in r.traces)
+    cap, disk = r.traces
+    # the cap levels off well above an isometry's E_SD: the plateau test, after `patience` steps at the least
+    assert 20 <= len(cap["iter"]) < 300 and min(cap["esd"]) > 4 * (1 + tol)
+    # the flat disk comes within tol of an isometry's E_SD (4), below which no step can gain tol: it stops there
+    assert len(disk["iter"]) < 20 and disk["esd"][-1] <= 4 * (1 + tol) < min(disk["esd"][:-1])
+
+
+def test_until_stops_the_charts_whose_best_map_passes_the_callers_test():
+    from neuraluv.solver.result import Stop
+
+    cfg = get_config("fast", iterations=120, early_stop=False)
+    preps = [prepare_chart(V, F, cfg) for V, F in (datasets.spherical_cap(3), datasets.spherical_cap(4))]
+    asked, seen = [], {}
+
+    def done(rows, uvs):   # chart 0 is done at the second question, chart 1 never
+        asked.append(list(rows))
+        for r, u in zip(rows, uvs):
+            seen[int(r)] = u.copy()
+        return [int(r) == 0 and len(asked) >= 2 for r in rows]
+
+    r = optimise(make_batch(preps), cfg, [0, 0], until=(5, done))
+    assert asked[0] == [0, 1] and asked[1] == [0, 1] and all(a == [1] for a in asked[2:])
+    assert r.stop == [Stop.REACHED, Stop.BUDGET] and r.rounds >= 120
+    assert Stop.from_label(Stop.REACHED.label) is Stop.REACHED
+    # what the test saw is what the chart returns: its best map at the round it stopped (10)
+    assert np.array_equal(r.best_uv[0, : len(preps[0].X)], seen[0]) and len(r.traces[0]["iter"]) <= 10
+    through = solve_charts(None, cfg, preps=preps, until=(5, lambda ids, uvs: [i == 1 for i in ids]), workers=1)
+    assert through[0].stop != "reached" and through[1].stop == "reached"
 
 
 def test_a_solve_goes_on_from_the_parameters_it_is_given():

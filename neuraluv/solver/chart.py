@@ -203,7 +203,8 @@ def prepare_chart(V, F, config="fast", *, check=True, n_eig=None, k=None, start_
 PREPARE_AT_ONCE = 2000
 
 
-def prepare_charts(charts, config="fast", *, labels=None, check=True, errors="raise", workers="auto", pool="auto"):
+def prepare_charts(charts, config="fast", *, labels=None, check=True, errors="raise", workers="auto", pool="auto",
+                   starts=None, start_name="given"):
     """:func:`prepare_chart` of many charts, split over the batch workers (forked processes on Linux, CPU).
 
     Parameters
@@ -215,6 +216,9 @@ def prepare_charts(charts, config="fast", *, labels=None, check=True, errors="ra
         Run the disk-like test first (raises :class:`TopologyError`).
     errors : ``"raise"`` or ``"return"``
         ``"return"``: a chart whose preparation raises gets the exception in its place.
+    starts : list of ((n,2) float array or None), optional
+        Per chart, a valid start at ``V``'s scale (:func:`prepare_chart`'s ``start_uv`` times its
+        ``scale``), named ``start_name``; None: the chart's own start.
     workers, pool :
         As in :func:`solve_charts` (:func:`~neuraluv.solver.pool.batch_workers`,
         :func:`~neuraluv.solver.pool.batch_pool`); the charts are split into groups of about
@@ -240,7 +244,8 @@ def prepare_charts(charts, config="fast", *, labels=None, check=True, errors="ra
 
     def one(i):
         try:
-            return prepare_chart(*charts[i], cfg, check=check, label=labels[i])
+            given = None if starts is None or starts[i] is None else starts[i] / normalize_unit_box(charts[i][0])[2]
+            return prepare_chart(*charts[i], cfg, check=check, label=labels[i], start_uv=given, start_name=start_name)
         except Exception as exc:
             if errors == "raise":
                 raise
@@ -406,7 +411,7 @@ def _result(cfg, prep, attempts, log, t_start, device):
 
 def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False, callback=None, labels=None,
                  check=True, deadline=None, max_rows=60000, max_batch=512, preps=None, theta0=None, workers="auto",
-                 pool="auto"):
+                 pool="auto", until=None):
     """Flatten many disk-like charts, their networks optimised together in batches.
 
     Parameters
@@ -437,6 +442,9 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
         Per chart, the parameters its first attempt starts from (a ``ChartResult.theta`` of
         an earlier solve of the same prepared chart: the solve goes on from there); retries
         start afresh.
+    until : (int, callable), optional
+        ``(every, done)``: :func:`~neuraluv.solver.engine.optimise`'s, with ``done(charts, uvs)`` given
+        indices into ``charts`` and their flip-free best maps at ``V``'s scale.
     workers : int or "auto"
         Batches optimised at once (:func:`~neuraluv.solver.pool.batch_workers`); ``"auto"`` on the CPU:
         as many as torch may use threads (``torch.get_num_threads()``, which ``--threads`` and
@@ -492,8 +500,10 @@ def solve_charts(charts, config="fast", *, seed=0, device="auto", progress=False
     def run(idx, a):
         tb = time.perf_counter()
         batch = make_batch([preps[i] for i in idx], residual=residual, device=dev)
+        done = None if until is None else (  # batch rows -> charts, UVs at V's scale
+            until[0], lambda r, u: until[1]([idx[j] for j in r], [x * preps[idx[j]].scale for j, x in zip(r, u)]))
         res = optimise(batch, cfg, [seed + a] * len(idx), lr_scale=[0.5**a] * len(idx), callback=callback,
-                       progress=bar if len(preps) == 1 else None, deadline=deadline,
+                       progress=bar if len(preps) == 1 else None, deadline=deadline, until=done,
                        theta0=[theta0[i] for i in idx] if (theta0 is not None and a == 0) else None)
         return res, time.perf_counter() - tb
 

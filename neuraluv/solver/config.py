@@ -52,7 +52,10 @@ class SolverConfig:
         50 steps instead of at least 200 (issue 28): on the atlases of cow, spot
         and three generated assets 27% fewer solver rounds in all (9,307 → 6,760)
         at the same face-weighted E_SD within 0.001 (one asset 4.051 → 4.006);
-        Hand / Bob / Camel's E_SD equal within 0.003.
+        Hand / Bob / Camel's E_SD equal within 0.003. A chart whose best E_SD is
+        within ``4 · tol`` of an isometry's (4, the least of any map) stops at
+        once: no window of steps can improve it by ``tol`` any more, so the
+        plateau test would stop it at its first check.
     retries : extra attempts (next seed, halved learning rate) if a solve ends invalid.
     loss_rise : not in the paper's text. A step is also rejected when it raises the
         loss by more than this fraction (0 disables the guard). Algorithm 1

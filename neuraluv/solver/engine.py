@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from neuraluv.metrics import ESD_ISOMETRY
 from neuraluv.solver import vertex
 from neuraluv.solver.batch import subset_batch
 from neuraluv.solver.energy import chart_objective
@@ -78,7 +79,7 @@ class EngineResult:
 
 
 def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, deadline=None, profile=False,
-             theta0=None):
+             theta0=None, until=None):
     """Run Algorithm 1's optimisation on every chart of a batch.
 
     Parameters
@@ -101,6 +102,12 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
     theta0 : list of ((P,) tensor or None), optional
         Per chart, parameters to start from instead of its seed's initialisation (an
         earlier solve's ``EngineResult.theta`` row, to continue it); residual mode only.
+    until : (int, callable), optional
+        ``(every, done)``: every ``every`` rounds, ``done(rows, uvs)`` is asked about the running
+        charts whose best map is flip-free (``rows``: their rows in the batch; ``uvs``: those maps,
+        ``(n_c, 2)`` arrays without the padding) and returns one bool per chart; a chart given True
+        stops (``Stop.REACHED``). Routing's solve-on ends a map as soon as its boundary no longer
+        crosses itself.
 
     Returns
     -------
@@ -127,6 +134,8 @@ def optimise(batch, cfg, seeds, *, lr_scale=None, callback=None, progress=None, 
         acc = run.decide(new)                                    # 3. decide, per chart
         run.merge(trial, th, u, new, acc)                        # 4. backpropagate the accepted, merge
         run.adapt(acc)                                           # steps halved / regrown; charts that stop
+        if until is not None and run.rounds % until[0] == 0:
+            run.reach(until[1])                                  # the caller's test of the best maps
         run.record(acc, new, trial.lr)
         run.report(acc)
     return run.finish()
@@ -232,6 +241,7 @@ class _Run:
             self.betas = tuple(float(x) for x in cfg.betas)
         self.patience = max(int(cfg.patience), 1)
         self.early_from = max(self.patience, int(cfg.early_after * cfg.iterations))
+        self.esd_floor = ESD_ISOMETRY * (1.0 + cfg.tol)   # no step can lower a best E_SD below it by tol
         self.out_u = np.zeros((B0, self.bt.n, 2))
         self.out_theta = torch.zeros(B0, theta.shape[1], dtype=theta.dtype, device=dev)
         self.out_stop = np.full(B0, int(Stop.RUNNING), np.int64)
@@ -417,13 +427,33 @@ class _Run:
                 self._finish(self._plateau(acc), Stop.EARLY_STOP)
 
     def _plateau(self, acc):
-        """Charts whose best E_SD (flip-free) improved by less than ``tol`` over their last ``patience`` accepted steps."""
+        """Charts whose best E_SD (flip-free) improved by less than ``tol`` over their last ``patience`` accepted
+        steps, or can no longer improve by that much: within ``tol`` of an isometry's E_SD.
+
+        No window of steps can lower E_SD by more than its distance to :data:`~neuraluv.metrics.ESD_ISOMETRY`,
+        the least E_SD of any map; a chart whose best is within ``4 · tol`` of it is sure to pass the
+        plateau test once the test starts (after ``patience`` steps), and stops now instead.
+        """
         st, cfg = self.st, self.cfg
         slot = (st.it.long() % self.patience)[:, None]
         old = st.best_ring.gather(1, slot).squeeze(1)      # best E_SD `patience` accepted steps ago
-        st.best_ring.scatter_(1, slot, torch.where(acc, st.best_key[:, 1], old)[:, None])
-        return (acc & st.active & (st.it >= self.early_from) & (st.best_key[:, 0] == 0)
-                & ((old - st.best_key[:, 1]) <= cfg.tol * st.best_key[:, 1].abs()))
+        best = st.best_key[:, 1]
+        st.best_ring.scatter_(1, slot, torch.where(acc, best, old)[:, None])
+        done = ((st.it >= self.early_from) & ((old - best) <= cfg.tol * best.abs())) | (best <= self.esd_floor)
+        return acc & st.active & (st.best_key[:, 0] == 0) & done
+
+    def reach(self, done):
+        """Stop the running charts with a flip-free best map that ``done(rows, uvs)`` accepts (``Stop.REACHED``)."""
+        st = self.st
+        idx = torch.nonzero(st.active & (st.best_key[:, 0] == 0)).squeeze(1).cpu().numpy()
+        if len(idx):
+            sizes = np.asarray(self.bt.sizes)
+            best = st.best_u.detach().cpu().numpy()
+            ok = np.asarray(done(st.rows[idx].cpu().numpy(), [best[i, : sizes[i]] for i in idx]), bool)
+            mask = torch.zeros_like(st.active)
+            mask[torch.as_tensor(idx[ok], dtype=torch.long, device=mask.device)] = True
+            self._finish(mask, Stop.REACHED)
+        self.tick("bookkeeping")
 
     def _finish(self, mask, reason):
         """Stop the charts in ``mask (B,)`` for ``reason`` (a :class:`Stop`)."""

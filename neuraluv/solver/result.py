@@ -13,9 +13,12 @@ class Stop(IntEnum):
     """Why a chart's optimisation ended (the engine keeps the codes in a tensor, one per chart).
 
     ``BUDGET``: it took ``iterations`` accepted steps; ``EARLY_STOP``: its best
-    E_SD improved by less than ``tol`` over ``patience`` accepted steps;
+    E_SD improved by less than ``tol`` over ``patience`` accepted steps, or came
+    within ``tol`` of an isometry's (4), below which no step can gain ``tol``;
     ``STALLED``: more than ``max_backtracks`` halvings in a row were all
-    rejected; ``TIME``: the deadline passed. ``RUNNING`` while it runs.
+    rejected; ``TIME``: the deadline passed; ``REACHED``: the caller's test of
+    its best map passed (``until`` of :func:`~neuraluv.solver.engine.optimise`).
+    ``RUNNING`` while it runs.
     Reports and :attr:`ChartResult.stop` hold the :attr:`label`.
 
     Examples
@@ -29,10 +32,12 @@ class Stop(IntEnum):
     EARLY_STOP = 1
     STALLED = 2
     TIME = 3
+    REACHED = 4
 
     @property
     def label(self):
-        """The name written in results and reports (``"budget"``, ``"early_stop"``, ``"stalled"``, ``"time"``)."""
+        """The name written in results and reports (``"budget"``, ``"early_stop"``, ``"stalled"``, ``"time"``,
+        ``"reached"``)."""
         return self.name.lower()
 
     @classmethod
@@ -56,7 +61,7 @@ class ChartResult:
     time : wall seconds for the whole solve (features, Tutte, attempts).
     seed : seed of the returned attempt; attempts : number of attempts made.
     stop : why the returned attempt stopped: the :attr:`Stop.label` of a :class:`Stop`
-        (``"budget"``, ``"early_stop"``, ``"stalled"``, ``"time"``; ``Stop.from_label`` reads it back).
+        (``"budget"``, ``"early_stop"``, ``"stalled"``, ``"time"``, ``"reached"``; ``Stop.from_label`` reads it back).
     start : the valid start the residual network was attached to (``"tutte"``,
         or ``"tutte+slimN"`` after N SLIM iterations: ``start_relax``, ``start_slim``).
     attempt_metrics : metrics of every neural attempt, in order (ablations read
