@@ -221,6 +221,22 @@ def test_early_stop_is_reported_per_chart():
     assert len(disk["iter"]) < 20 and disk["esd"][-1] <= 4 * (1 + tol) < min(disk["esd"][:-1])
 
 
+def test_a_chart_converged_to_rounding_stops_without_waiting_for_the_plateau_window():
+    from neuraluv.solver.result import Stop
+
+    charts = (datasets.spherical_cap(3), datasets.spherical_cap(4))
+    runs = {}
+    for ftol in (1e-9, 0.0):   # a plateau window longer than the budget: it never ends these solves
+        cfg = get_config("fast", iterations=300, patience=400, tol=1e-12, early_after=0.0, ftol=ftol)
+        runs[ftol] = optimise(make_batch([prepare_chart(V, F, cfg) for V, F in charts]), cfg, [0, 0])
+    on, off = runs[1e-9], runs[0.0]
+    assert on.stop == [Stop.EARLY_STOP, Stop.EARLY_STOP] and Stop.EARLY_STOP not in off.stop
+    for a, b in zip(on.traces, off.traces):
+        assert len(a["iter"]) < len(b["iter"]) <= 300
+        e = np.minimum.accumulate(a["esd"])
+        assert e[-6] - e[-1] < 1e-9 * e[-1] and min(a["esd"]) == pytest.approx(min(b["esd"]), rel=1e-8)
+
+
 def test_until_stops_the_charts_whose_best_map_passes_the_callers_test():
     from neuraluv.solver.result import Stop
 

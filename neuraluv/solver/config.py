@@ -56,6 +56,12 @@ class SolverConfig:
         within ``4 · tol`` of an isometry's (4, the least of any map) stops at
         once: no window of steps can improve it by ``tol`` any more, so the
         plateau test would stop it at its first check.
+    ftol, ftol_steps : with ``early_stop``, a chart whose best E_SD improved by
+        less than ``ftol`` (relative) over its last ``ftol_steps`` accepted steps
+        has converged to rounding and stops then, without waiting ``patience``
+        steps (the relative-reduction test of L-BFGS-B, ``factr · eps`` ≈ 2e-9,
+        held over a few steps because one heavily backtracked step can gain that
+        little on a chart that is still moving). ``ftol = 0`` turns it off.
     retries : extra attempts (next seed, halved learning rate) if a solve ends invalid.
     loss_rise : not in the paper's text. A step is also rejected when it raises the
         loss by more than this fraction (0 disables the guard). Algorithm 1
@@ -126,6 +132,8 @@ class SolverConfig:
     patience: int = 100
     tol: float = 1e-3
     early_after: float = 0.5
+    ftol: float = 1e-9
+    ftol_steps: int = 5
     retries: int = 2
     start_relax: int = 100
     relax_below: float = 1e-4

@@ -242,6 +242,7 @@ class _Run:
         self.patience = max(int(cfg.patience), 1)
         self.early_from = max(self.patience, int(cfg.early_after * cfg.iterations))
         self.esd_floor = ESD_ISOMETRY * (1.0 + cfg.tol)   # no step can lower a best E_SD below it by tol
+        self.ftol_steps = min(max(int(cfg.ftol_steps), 1), self.patience)
         self.out_u = np.zeros((B0, self.bt.n, 2))
         self.out_theta = torch.zeros(B0, theta.shape[1], dtype=theta.dtype, device=dev)
         self.out_stop = np.full(B0, int(Stop.RUNNING), np.int64)
@@ -428,7 +429,8 @@ class _Run:
 
     def _plateau(self, acc):
         """Charts whose best E_SD (flip-free) improved by less than ``tol`` over their last ``patience`` accepted
-        steps, or can no longer improve by that much: within ``tol`` of an isometry's E_SD.
+        steps, or can no longer improve by that much: within ``tol`` of an isometry's E_SD; or by less than
+        ``ftol`` over their last ``ftol_steps`` (converged to rounding).
 
         No window of steps can lower E_SD by more than its distance to :data:`~neuraluv.metrics.ESD_ISOMETRY`,
         the least E_SD of any map; a chart whose best is within ``4 · tol`` of it is sure to pass the
@@ -437,9 +439,11 @@ class _Run:
         st, cfg = self.st, self.cfg
         slot = (st.it.long() % self.patience)[:, None]
         old = st.best_ring.gather(1, slot).squeeze(1)      # best E_SD `patience` accepted steps ago
+        recent = st.best_ring.gather(1, ((st.it.long() - self.ftol_steps) % self.patience)[:, None]).squeeze(1)
         best = st.best_key[:, 1]
         st.best_ring.scatter_(1, slot, torch.where(acc, best, old)[:, None])
-        done = ((st.it >= self.early_from) & ((old - best) <= cfg.tol * best.abs())) | (best <= self.esd_floor)
+        done = (((st.it >= self.early_from) & ((old - best) <= cfg.tol * best.abs())) | (best <= self.esd_floor)
+                | ((recent - best) < cfg.ftol * best.abs()))   # `ftol_steps` ago (inf before: never); ftol 0: off
         return acc & st.active & (st.best_key[:, 0] == 0) & done
 
     def reach(self, done):
