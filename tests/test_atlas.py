@@ -245,7 +245,7 @@ def test_a_split_piece_keeps_its_parents_map_where_that_map_is_injective_on_it()
     V, F = _wound_strip()
     every = np.arange(len(F))
     whole = chart_mesh(V, F, every)
-    parent = (every, whole[1], V[whole[0], :2], {})
+    parent = (every, whole[1], V[whole[0], :2])
     assert not boundary_is_simple(V[whole[0], :2], whole[1])
     assert _on_parent(V, every, whole, parent) is None                  # the whole strip overlaps itself there
     half = every[F.min(1) // 4 < 24]                                      # its first 0.8 turn does not
@@ -257,10 +257,10 @@ def test_a_split_piece_keeps_its_parents_map_where_that_map_is_injective_on_it()
     ring = np.array([f for f in range(len(Fd)) if 0 not in Fd[f]])
     m, pm = chart_mesh(Vd, Fd, ring), chart_mesh(Vd, Fd, np.arange(len(Fd)))
     assert len(m[2]) == 1
-    flat = (np.arange(len(Fd)), pm[1], Vd[pm[0], :2], {})
+    flat = (np.arange(len(Fd)), pm[1], Vd[pm[0], :2])
     uv = _on_parent(Vd, ring, m, flat)                                      # the ring's vertices, then its hub
     assert np.array_equal(uv[:-1], Vd[m[0], :2]) and np.allclose(uv[-1], 0.0)
-    assert _on_parent(Vd, ring, m, flat[:2] + (Vd[pm[0], :2] * [1, -1], {})) is None
+    assert _on_parent(Vd, ring, m, flat[:2] + (Vd[pm[0], :2] * [1, -1],)) is None
 
 
 @pytest.mark.slow
@@ -285,6 +285,23 @@ def test_a_chart_whose_neural_map_fails_is_split_and_routed_again(monkeypatch):
     # the halves are injective on the whole chart's (flip-free) map: they keep it, no solve of their own
     # each half is injective on the whole chart's flip-free map: its solve starts there, not at its Tutte circle
     assert all(c.method == "neural" and c.solver["start"] == routing.PARENT_START for c in charts)
+    # a half whose solve finds nothing better than that start keeps the split chart's map, as a neural chart
+    from dataclasses import replace as _replace
+
+    from neuraluv.solver import chart as solver_chart
+    real_solve = solver_chart.solve_charts
+
+    def no_better(charts_, cfg_, **k):
+        out = real_solve(charts_, cfg_, **k)
+        return [_replace(r, status="fallback", reason="no accepted step improved on the start",
+                         uv=p.u_start * p.scale, metrics=distortion_metrics(p.V, p.F, p.u_start * p.scale))
+                if p.start == routing.PARENT_START else r for r, p in zip(out, k["preps"])]
+
+    monkeypatch.setattr(solver_chart, "solve_charts", no_better)
+    kept = routing.route_charts(V, F, [(np.arange(len(F)), "component")], cfg, start_slim=0)
+    assert [c.route for c in kept] == [c.route for c in charts] and all(c.method == "neural" for c in kept)
+    assert all(c.solver["status"] == "fallback" for c in kept)
+    monkeypatch.setattr(solver_chart, "solve_charts", real_solve)
     monkeypatch.setattr(routing, "_on_parent", lambda *a: None)
     charts = routing.route_charts(V, F, [(np.arange(len(F)), "component")], cfg, start_slim=0)
     assert all(c.solver["start"] == "tutte" for c in charts if c.method == "neural")

@@ -469,10 +469,11 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             out[k] = _finish(AtlasChart(fidx, "neural", "neural", "", src, [(fidx, vi, Fl, uv)], solver=solver), V, t0)
             continue
         if _kept_start(res, prep):
-            # the network found nothing better than its SLIM-moved start, an injective map near the optimum:
-            # a marked fallback, kept whole (splitting it would only add seams)
-            out[k] = _finish(AtlasChart(fidx, "fallback", "slim-start", f"neural: {res.reason}", src,
-                                        [(fidx, vi, Fl, uv)], solver=solver), V, t0)
+            # the network found nothing better than its start, an injective map near the optimum, kept whole
+            # (splitting it would only add seams): a SLIM-moved start a marked fallback, a split chart's own map neural
+            how = ("neural", "neural", "") if prep.start == PARENT_START else ("fallback", "slim-start",
+                                                                              f"neural: {res.reason}")
+            out[k] = _finish(AtlasChart(fidx, *how, src, [(fidx, vi, Fl, uv)], solver=solver), V, t0)
             continue
         if res.status == "neural":
             why[k] = why.get(k, "") + f"neural map overlaps itself in UV ({100 * self_overlap(uv, Fl):.3g}% of its area)"
@@ -480,7 +481,7 @@ def _route_round(V, F, todo, cfg, seed, device, deadline, progress, t0, prepare_
             why[k] = why.get(k, "") + f"neural: {res.reason}"
         timed_out = deadline is not None and time.perf_counter() > deadline
         if not last and not timed_out:
-            retry.append((fidx, src, why[k], (fidx, Fl, uv, solver) if res.status == "neural" else None))
+            retry.append((fidx, src, why[k], (fidx, Fl, uv) if res.status == "neural" else None))
             retried.add(k)
             continue
         method, islands, reason = fallback_islands(V, F, fidx, why[k])
@@ -507,7 +508,7 @@ def _on_parent(V, fidx, mesh, parent):
     V : (n,3) float array
     fidx : (k,) int array, the piece's faces (a subset of the parent's)
     mesh : the piece's :func:`~neuraluv.atlas.candidates.chart_mesh`
-    parent : None or ``(fidx, Fl, uv, solver)`` of the parent chart (its faces, local faces and UVs)
+    parent : None or ``(fidx, Fl, uv)`` of the parent chart (its faces, local faces and UVs)
 
     Returns
     -------
@@ -517,7 +518,7 @@ def _on_parent(V, fidx, mesh, parent):
     if parent is None:
         return None
     vi, Fl, Vx, Fx = mesh
-    pf, pFl, puv, _ = parent
+    pf, pFl, puv = parent
     order = np.argsort(pf)
     row = order[np.minimum(np.searchsorted(pf, fidx, sorter=order), len(pf) - 1)]
     if not np.array_equal(pf[row], fidx):
@@ -546,8 +547,9 @@ def _isometric(prep):
 
 
 def _kept_start(res, prep):
-    """A solver fallback that returned its SLIM-moved start, valid with a simple outer boundary (injective)."""
-    return (res.status == "fallback" and prep.start.startswith("tutte+slim") and res.metrics["valid"]
+    """A solver fallback that returned its SLIM-moved start or split chart's map, valid with a simple boundary."""
+    return (res.status == "fallback" and (prep.start.startswith("tutte+slim") or prep.start == PARENT_START)
+            and res.metrics["valid"]
             and res.uv is not None and np.array_equal(res.uv, prep.u_start * prep.scale)
             and boundary_is_simple(prep.u_start, prep.F))
 
