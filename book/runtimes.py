@@ -38,8 +38,8 @@ PAPER_ESTIMATES = {
     "05": (_CAMEL + _HAND + 28, "`paper` solves of Hand and Camel (246 + 105 s) and SLIM-1k on both (22 + 6 s)"),
     "06": (None, "two 5,000-iteration solves of Camel (2 x 105 s) plus NTK probes of the 5x256 network at 5 steps each: "
                  "the probes are not measured here; the chapter's own estimate is most of an hour"),
-    "07": (None, "the full-size generated asset and the cow atlas with the `paper` preset: the `fast` atlas takes 7 s "
-                 "(median generated) and 13 s (cow) in results/speed/atlas.md, and a `paper` chart solve costs 16-27x "
+    "07": (None, "the full-size generated asset and the cow atlas with the `paper` preset: the `fast` atlas takes 8 s "
+                 "(median generated) and 12 s (cow) in results/speed/atlas.md, and a `paper` chart solve costs 16-27x "
                  "a `fast` one there, so several minutes; not measured"),
     "08": (0, "reads the committed reports; the one live row uses the `fast` preset either way"),
     "09": (None, "two `paper` solves of Camel (2 x 105 s), the cow atlas with the `paper` preset (minutes, see 07) and "
