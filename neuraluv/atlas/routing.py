@@ -519,9 +519,10 @@ def _on_parent(V, fidx, mesh, parent):
         return None
     vi, Fl, Vx, Fx = mesh
     pf, pFl, puv = parent
-    order = np.argsort(pf)
-    row = order[np.minimum(np.searchsorted(pf, fidx, sorter=order), len(pf) - 1)]
-    if not np.array_equal(pf[row], fidx):
+    pos = np.full(max(pf.max(), fidx.max()) + 1, -1)   # face -> its row in the parent
+    pos[pf] = np.arange(len(pf))
+    row = pos[fidx]
+    if (row < 0).any():
         return None
     n = len(vi)
     uv = np.full((n + len(Vx), 2), np.nan)
