@@ -141,6 +141,34 @@ def test_glb_atlas_adds_a_uv_set_and_keeps_the_scene(tmp_path, capsys):
     assert v is None or (v["errors"] == 0 and v["warnings"] == 0), v
 
 
+def test_an_added_uv_set_has_one_index_on_every_primitive(tmp_path):
+    """A mesh whose textured part has TEXCOORD_0 and whose plain part has none gets the new layout as
+    TEXCOORD_1 on both (a baker reads one set index), the plain part's missing TEXCOORD_0 filled with it."""
+    import trimesh
+
+    from neuraluv.io import read_gltf_layout, write_gltf_uvs
+
+    textured = trimesh.creation.box()
+    textured.visual = trimesh.visual.TextureVisuals(uv=textured.vertices[:, :2] * 0.5 + 0.5)
+    plain = trimesh.creation.icosphere(1)
+    scene = trimesh.Scene()
+    scene.add_geometry(textured, geom_name="textured")
+    scene.add_geometry(plain, geom_name="plain", transform=trimesh.transformations.translation_matrix([3, 0, 0]))
+    src, out = tmp_path / "two.glb", tmp_path / "out.glb"
+    src.write_bytes(scene.export(file_type="glb"))
+    lay = read_gltf_layout(src, None)  # geometry of both parts
+    assert len(lay.blocks) == 2
+    UV = np.c_[lay.V[:, 0], lay.V[:, 1]] * 0.1 + 0.5  # any finite layout will do
+    info = write_gltf_uvs(lay, np.r_[lay.UV, UV], lay.FUV + len(lay.UV), out, mode="add")
+    assert info["texcoord"] == [1, 1] and len(info["filled"]) == 1 and info["filled"][0][2] == [0]
+    new = read_gltf_layout(out, 1)
+    assert len(new.F) == len(lay.F) and np.allclose(new.UV[new.FUV], UV[lay.FUV], atol=1e-6)
+    before, after = read_gltf_layout(src, 0), read_gltf_layout(out, 0)  # the textured part's own set: as it was
+    assert np.array_equal(before.UV[before.FUV], after.UV[after.FUV][:len(before.F)])
+    v = _gltf_validate(out)
+    assert v is None or (v["errors"] == 0 and v["warnings"] == 0), v
+
+
 @pytest.mark.slow
 def test_glb_atlas_replacing_the_uv_set_rebakes_the_texture(tmp_path, capsys):
     from neuraluv.io.gltf import load_gltf

@@ -191,9 +191,9 @@ def atlas_file(inp, out, *, report=None, renders=None, replace_uvs=False, rebake
 
     What the input holds besides the faces is kept: an OBJ written as OBJ keeps every line (normals,
     groups, materials, polygons) but the ``vt`` rows and the ``f`` lines' ``vt`` indices; a GLB written
-    as GLB keeps the whole scene and gets the atlas as a UV set of its own (``TEXCOORD_k``, the first free
-    ``k``), or in place of ``TEXCOORD_0`` with ``replace_uvs``. Every input face is in the output: a face
-    the atlas's mesh repair dropped (a double-sided twin, a degenerate face, a sliver) is written with
+    as GLB keeps the whole scene and gets the atlas as a UV set of its own (``TEXCOORD_k``, the first ``k``
+    free on every primitive), or in place of ``TEXCOORD_0`` with ``replace_uvs``. Every input face is in the
+    output: a face the atlas's mesh repair dropped (a double-sided twin, a degenerate face, a sliver) is written with
     its twin's UVs or at one UV point, and counted. Textures that read replaced UVs are re-baked. The
     output, the re-baked textures and the report are written as one (all or none).
 

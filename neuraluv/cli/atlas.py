@@ -145,7 +145,9 @@ def _print_carried(rep):
                  "to write it into TEXCOORD_0)")
               + "; every other part of the scene kept"
               + (f"; {w['primitives_split']} primitive(s) had vertices split along the atlas's seams (attributes "
-                 "copied)" if w["primitives_split"] else ""))
+                 "copied)" if w["primitives_split"] else "")
+              + (f"; {len(w['filled'])} primitive(s) without the lower UV sets got the atlas there too (glTF "
+                 "numbers UV sets from 0 without gaps)" if w.get("filled") else ""))
     elif "f_lines_changed" in w:
         print(f"  OBJ: every line kept but {w['vt_lines_changed']:,} vt lines changed, {w['vt_lines_added']:,} added, "
               f"{w['f_lines_changed']:,} f lines given new vt indices"
@@ -246,11 +248,7 @@ def cmd_repair(args):
                 written = write_gltf_uvs(data, res.UV, res.FUV, tmp, mode="add" if add else "replace")
             except NeuralUVError as exc:
                 raise NeuralUVError(f"{inp.name}: {exc}") from None
-            sets = sorted(set(written["texcoord"]))
-            read_set = sets[0]
-            if len(sets) > 1:
-                print(f"  note: the primitives got different UV sets ({', '.join(f'TEXCOORD_{k}' for k in sets)}); "
-                      f"the read-back checks TEXCOORD_{read_set}")
+            read_set = written["texcoord"][0]  # one set index on every primitive written
         elif res.unchanged and out.suffix.lower() == inp.suffix.lower():
             tmp.write_bytes(inp.read_bytes())  # nothing changed: the input's bytes, not a re-export
             written = {"format": out.suffix.lower(), "copied": True}
@@ -382,7 +380,7 @@ def register(sub):
     a.add_argument("--renders", help="folder for checkerboard and route-coloured PNGs")
     a.add_argument("--replace-uvs", action="store_true",
                    help="glTF: write the atlas into TEXCOORD_0 (textures re-baked) instead of adding it as a UV set of "
-                        "its own (TEXCOORD_k, the first free k), which leaves the file's textures as they are")
+                        "its own (TEXCOORD_k, the first k free on every primitive), which leaves the file's textures as they are")
     a.add_argument("--no-rebake", action="store_true",
                    help="do not re-bake the textures that read UVs the atlas replaced (an OBJ with vt, or "
                         "--replace-uvs)")
@@ -412,7 +410,7 @@ def register(sub):
     r.add_argument("--uv-set", type=int, default=0, metavar="N", help="glTF: the UV set TEXCOORD_N to repair (default 0)")
     r.add_argument("--replace-uvs", action="store_true",
                    help="glTF under --purpose bake/lightmap: overwrite the UV set read instead of adding the new "
-                        "layout as a UV set of its own (TEXCOORD_k, the first free k)")
+                        "layout as a UV set of its own (TEXCOORD_k, the first k free on every primitive)")
     r.add_argument("--no-neural", action="store_true", help="untangle/polish/move only; islands that need a re-solve stay broken")
     _atlas_options(r)
     time_budget_option(r, 300)

@@ -12,8 +12,10 @@ that UV set, points and lines are left out and listed.
 input — nodes, transforms, normals, materials, images, skins, other UV sets,
 extensions — is kept. Under ``mode="replace"`` only the changed rows of the
 UV accessors are overwritten in place (float accessors; a normalized integer
-accessor is replaced by a float one). Under ``mode="add"`` each primitive gets a
-new UV set (``TEXCOORD_k``, the first unused ``k``), leaving the others alone.
+accessor is replaced by a float one). Under ``mode="add"`` every primitive gets
+the new layout as one UV set ``TEXCOORD_k`` (the first ``k`` unused on all of
+them), leaving the others alone; a primitive with fewer sets has its missing
+lower ones filled with the same accessor (glTF set indices run on from 0).
 When the new layout splits a vertex (one vertex, two UVs), the primitive's
 vertex attributes are gathered onto the split vertices in new accessors (the
 values are copied, not changed).
@@ -335,12 +337,16 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
     dst : path of the ``.glb`` to write (atomically).
     mode : {"replace", "add"}
         ``replace``: the UV set that was read gets the new values. ``add``: a new UV set
-        ``TEXCOORD_k`` (the first free ``k`` of each primitive); the read one stays as it is.
+        ``TEXCOORD_k``, one ``k`` for every primitive written (the first set free on all of them, so that a
+        baker reading one set index finds the whole layout); the sets already there stay as they are. A
+        primitive with fewer sets gets its missing lower sets as the same accessor (glTF wants set indices
+        continuous from 0), listed in ``filled``.
 
     Returns
     -------
     dict: ``mode``, ``texcoord`` (the set written, per primitive), ``rows_changed``, ``primitives_split``
-    (primitives whose vertices had to be split, their attributes copied to new accessors).
+    (primitives whose vertices had to be split, their attributes copied to new accessors), ``filled``
+    (``(mesh, primitive, [set, ...])`` for each primitive whose lower sets were filled with the new layout).
     """
     import copy
 
@@ -363,11 +369,21 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
     if FUV.shape != layout.F.shape or len(UV) < p0 or not np.isfinite(UV[np.unique(FUV)]).all():
         raise NeuralUVError("the new layout must give finite UVs to every face of the one read")
     same = (np.ascontiguousarray(UV[:p0]).view(np.int64) == np.ascontiguousarray(layout.UV).view(np.int64)).all(1)
-    info = {"mode": mode, "texcoord": [], "rows_changed": int((~same).sum()), "primitives_split": 0}
-    for b in layout.blocks:
+    info = {"mode": mode, "texcoord": [], "rows_changed": int((~same).sum()), "primitives_split": 0, "filled": []}
+    prims = [doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]] for b in layout.blocks]
+    k_add = max(_free_set(p) for p in prims)
+
+    def put(b, prim, acc):  # the new layout as TEXCOORD_k_add, lower sets the primitive lacks filled with it
+        gaps = [j for j in range(k_add) if f"TEXCOORD_{j}" not in prim["attributes"]]
+        for j in gaps + [k_add]:
+            prim["attributes"][f"TEXCOORD_{j}"] = acc
+        if gaps:
+            info["filled"].append((b["mesh"], b["primitive"], gaps))
+        info["texcoord"].append(k_add)
+
+    for b, prim in zip(layout.blocks, prims):
         r0, nr = b["rows"]
         f0, nf = b["faces"]
-        prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
         own = FUV[f0:f0 + nf]
         local = b["indices"]  # (nf,3) vertex of each corner
         # the row each vertex needs: one per vertex unless the layout split it
@@ -397,9 +413,7 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
                     prim["attributes"][f"TEXCOORD_{layout.texcoord}"] = _new_accessor(doc, _float_uv(UV[vrow]))
                 info["texcoord"].append(layout.texcoord)
             else:
-                k = _free_set(prim)
-                prim["attributes"][f"TEXCOORD_{k}"] = _new_accessor(doc, _float_uv(UV[vrow]))
-                info["texcoord"].append(k)
+                put(b, prim, _new_accessor(doc, _float_uv(UV[vrow])))
             continue
         # split vertices: gather every vertex attribute (and morph target) onto the new vertices
         info["primitives_split"] += 1
@@ -414,12 +428,15 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
         for t in prim.get("targets", []):
             for name, ai in list(t.items()):
                 t[name] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
-        k = layout.texcoord if mode == "replace" else _free_set(prim)
-        prim["attributes"][f"TEXCOORD_{k}"] = _new_accessor(doc, _float_uv(UV[uniq[:, 1]]))
+        acc = _new_accessor(doc, _float_uv(UV[uniq[:, 1]]))
+        if mode == "replace":
+            prim["attributes"][f"TEXCOORD_{layout.texcoord}"] = acc
+            info["texcoord"].append(layout.texcoord)
+        else:
+            put(b, prim, acc)
         tri = inv.reshape(-1).astype(np.uint32 if len(uniq) > 65535 else np.uint16)
         prim["indices"] = _new_accessor(doc, tri.reshape(-1, 1), target=34963)
         prim["mode"] = 4
-        info["texcoord"].append(k)
     if len(doc.buffers[0]) != size0:  # data appended (the chunk read may hold padding beyond byteLength)
         doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
     _write_glb(doc, dst, keep_json=doc.json == original)
