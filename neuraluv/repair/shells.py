@@ -389,6 +389,15 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
         res, info = repair_cluster(Vn, F, work, FUV, graph, targets, scale, **{**kw, "allowed": allowed})
         if res is None and not whole:
             return None, info
+        if res is None:  # as repair_shells' last local step: the layer's faces that lay over another part of it
+            a, b = overlap_pairs(work, FUV, fl)  # before may overlap (which of those were meant, a fold cannot tell)
+            if len(a):
+                laid = np.zeros(len(F), bool)
+                laid[a] = laid[b] = True
+                res, info = repair_cluster(Vn, F, work, FUV, graph, targets, scale,
+                                           **{**kw, "allowed": PairsWith(allowed, laid)})
+                if res is not None:
+                    info = {**info, "kept_overlaps": True}
         if res is None:  # the whole layer free (its locked rows kept)
             rows = np.setdiff1d(np.unique(FUV[fl]), np.flatnonzero(locked))
             res, info = untangle_faces(Vn, F, work, FUV, fl, rows, scale, allowed, deadline=kw.get("deadline"))

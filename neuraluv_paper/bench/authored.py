@@ -168,7 +168,8 @@ def bench(*, output="results/authored", seed=0, damaged=True, argv=None, show_pr
         raise datasets.DataMissing("no authored asset is cached: run `python data_scripts/fetch.py --authored --from DIR`")
     rows = []
     for fname, src in assets:
-        tmp = Path(tempfile.mkdtemp(prefix="neuraluv_authored_"))
+        scratch = tempfile.TemporaryDirectory(prefix="neuraluv_authored_")  # removed at the asset's end (or when dropped)
+        tmp = Path(scratch.name)
         work = tmp / fname
         shutil.copyfile(src, work)
         for c in _COMPANIONS.get(fname, []):
@@ -214,7 +215,7 @@ def bench(*, output="results/authored", seed=0, damaged=True, argv=None, show_pr
             rows.append(row)
             if show_progress:
                 print(_line(row), flush=True)
-        shutil.rmtree(tmp, ignore_errors=True)
+        scratch.cleanup()
     files = [write_csv(out_dir / "authored.csv", rows)]
     md = _markdown(rows, notes)
     files.append(write_markdown(out_dir / "authored.md", "Check and repair on real authored assets", md,

@@ -179,7 +179,8 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
             notes.append("mouette: not installed (`pip install -e .[bench]`); its column reads `not installed`")
     rows = []
     figure_case = None
-    tmp = Path(tempfile.mkdtemp(prefix="neuraluv_bench_repair_"))
+    scratch = tempfile.TemporaryDirectory(prefix="neuraluv_bench_repair_")  # removed after the loop (or when collected)
+    tmp = Path(scratch.name)
     warmed = False
     for name, V, F, UV, FUV, kind in layouts:
         f0 = layout_facts(V, F, UV, FUV)
@@ -246,6 +247,7 @@ def bench(*, output="results/repair", quick=False, preset="fast", seed=0, mouett
                       flush=True)
             if figure_case is None and case == "local fold":
                 figure_case = (name, res)
+    scratch.cleanup()
     files = []
     csv_path = write_csv(out_dir / "repair.csv", [{k: v for k, v in r.items() if k != "damage"} for r in rows])
     files.append(csv_path)
