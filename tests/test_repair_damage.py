@@ -35,6 +35,25 @@ def test_a_vertex_flung_across_a_small_island_is_a_fold_not_a_mirrored_island():
     assert res.changed_faces.sum() <= 3  # the flung vertex's faces only
 
 
+def test_a_band_pushed_over_its_neighbours_is_a_fold_not_a_mirrored_copy():
+    # a push across a narrow strip (the bench's local fold on the stacked cylinder, seed 12) reverses a band that
+    # is as regular as a mirrored copy and a large part of the island; it lies on the faces next to it, where a
+    # copy lies on the part it copies. Read as a mirrored copy it was kept as intent (the faces it folded over
+    # were the "fold"), and the band stayed reversed in the output.
+    V, F = grid(12, 2)
+    V = np.c_[V[:, 0], V[:, 1], 0.3 * np.sin(V[:, 0] / 2)]
+    UV = V[:, :2] / 13 + 0.01
+    w = np.clip(1 - np.maximum(np.abs(V[:, 0] - 6), np.abs(V[:, 1] - 1)) / 3, 0, None)  # 2 rings, tapered
+    for push in ([5.0, 0.0], [-5.9, 0.85]):
+        bad = UV + w[:, None] * np.array(push) / 13
+        f = layout_facts(V, F, bad, F)
+        it = layout_intent(f)
+        assert (f.det < 0).sum() == 10 and not it.mirrored_shell.any()
+        assert it.fold[f.det < 0].all()
+        res = repair_layout(V, F, bad, F, purpose="texture", device="cpu")
+        assert res.after.validation["valid"] and (layout_facts(V, F, res.UV, res.FUV).det > 0).all()
+
+
 def twin_halves(n=4, rows=4):
     """A mirror modifier's halves sharing their UVs: the right half an ``n`` × ``rows`` grid at ``x >= 0``, the
     left half its mirror image (winding reversed, merged at ``x = 0``), every face using its mirror face's

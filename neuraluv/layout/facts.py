@@ -30,7 +30,8 @@ from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import face_dets
 from neuraluv.topology import faces_sharing
 
-__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "coincident_rows", "face_clusters", "texel_density", "island_densities",
+__all__ = ["LayoutFacts", "layout_facts", "uv_islands", "coincident_rows", "face_clusters", "within_rings",
+           "texel_density", "island_densities",
            "face_texel_density",
            "density_spread", "DEGENERATE_3D_AREA", "defect_area", "SURFACE_FACTOR", "holds_more"]
 
@@ -146,6 +147,53 @@ def coincident_rows(V, F, UV, FUV, label=None):
     first = np.full(comp.max(initial=-1) + 1, p, np.int64)
     np.minimum.at(first, comp, np.arange(p))
     return first[comp]
+
+
+def within_rings(F, faces, i, j, rings):
+    """Whether face ``j`` lies within ``rings`` rings of face ``i``, the rings grown through ``faces``.
+
+    Face ``j`` is within 0 rings of ``i`` when the two share a corner, and within ``r + 1`` rings when it shares
+    a corner with a face within ``r`` rings (the rows of ``i`` grown ring by ring reach ``j``'s). With ``F`` the
+    ``vt`` rows, the rings are those of the texture layout.
+
+    Parameters
+    ----------
+    F : (m,3) int array
+    faces : (k,) int array, the faces the rings grow through (``i`` and ``j`` among them)
+    i, j : (q,) int arrays, pairs of faces
+    rings : int
+
+    Returns
+    -------
+    (q,) bool array
+
+    Examples
+    --------
+    A strip of triangles, each sharing an edge with the next (and a corner with the one after):
+
+    >>> F = np.array([[k, k + 1, k + 2] for k in range(6)])
+    >>> [within_rings(F, np.arange(6), np.zeros(5, int), np.arange(1, 6), r).tolist() for r in (0, 1)]
+    [[True, True, False, False, False], [True, True, True, True, False]]
+    """
+    faces = np.asarray(faces, np.int64)
+    i, j = np.asarray(i, np.int64), np.asarray(j, np.int64)
+    if not len(i):
+        return np.zeros(0, bool)
+    import scipy.sparse as sp
+
+    T = np.asarray(F)[faces]
+    M = sp.csr_matrix((np.ones(T.size), (np.repeat(np.arange(len(T)), 3), T.reshape(-1))),
+                      shape=(len(T), int(T.max()) + 1))
+    G = (M @ M.T).tocsr()  # faces sharing a corner, each face its own neighbour
+    G.data[:] = 1.0
+    pos = np.full(int(max(faces.max(), i.max(), j.max())) + 1, -1)
+    pos[faces] = np.arange(len(faces))
+    ui, inv = np.unique(i, return_inverse=True)
+    R = G[pos[ui]]
+    for _ in range(rings):
+        R = (R @ G).tocsr()
+        R.data[:] = 1.0
+    return np.asarray(R[inv.reshape(-1), pos[j]]).reshape(-1) != 0
 
 
 def face_clusters(FUV, faces):

@@ -61,7 +61,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from neuraluv.layout import PURPOSES
-from neuraluv.layout.facts import holds_more
+from neuraluv.layout.facts import holds_more, within_rings
 from neuraluv.layout.overlap import overlap_pairs, points_in_triangles
 from neuraluv.topology import faces_sharing, undirected_edges
 
@@ -78,6 +78,10 @@ REGULAR_FACTOR = 2.0
 
 #: An inexact stacked copy without a border seam must hold at least this share of its main shell's UV area.
 COPY_SHARE = 0.1
+
+#: Rings around a stacked copy candidate within which the faces it lies on are its own neighbours (a fold pushed
+#: over them), not the part it copies (:func:`_stacked_copies`).
+NEAR_RINGS = 3
 
 #: A sheet whose UV points are thinner than this share of their length is collapsed along a line (a palette).
 LINE_ASPECT = 1e-3
@@ -352,15 +356,18 @@ def _on_a_line(P, rel=LINE_ASPECT):
 
 
 def _stacked_copies(facts, sheets, faces_of, s_island, s_cls, s_area, main_of, has_interior, *,
-                    regular=REGULAR_FACTOR, share=COPY_SHARE):
+                    regular=REGULAR_FACTOR, share=COPY_SHARE, rings=NEAR_RINGS):
     """Sheets (of ``sheets``) that are stacked copies by their shape, though not exact twins.
 
     A copy is a region mapped as regularly as the shell it lies on: it has an interior ``vt`` row, its
     median conformal distortion and median area scale are within a factor ``regular`` of its island's
     main shell, and it is a part of the island of its own — at least ``share`` of the main shell's UV
-    area, or meeting the other orientation along a seam on the border of that orientation's image (just
-    beyond at least half of the shared edges, away from both faces, lies no face of the other
-    orientation). A fold is squashed, or small and a pleat inside the image.
+    area, and lying more on distant parts of the other orientation than on the faces within ``rings``
+    rings of it, or meeting the other orientation along a seam on the border of that orientation's image
+    (just beyond at least half of the shared edges, away from both faces, lies no face of the other
+    orientation). A fold is squashed, or lies on its own neighbours (a region pushed over the faces next
+    to it: as regular as a mirrored copy, but a copy lies on the part it copies), or is small and a pleat
+    inside the image.
     """
     from neuraluv.metrics import corner_jacobians, face_metrics
 
@@ -378,11 +385,12 @@ def _stacked_copies(facts, sheets, faces_of, s_island, s_cls, s_area, main_of, h
         ak, am = np.nanmedian(det[:len(fk)]), np.nanmedian(det[len(fk):])
         if not (ck <= regular * max(cm, 1.0) and am / regular <= ak <= regular * am):
             continue
-        if s_area[k] >= share * s_area[main_of[s_island[k]]]:
-            out.add(int(k))
-            continue
         isl = facts.island_faces(s_island[k])
         other = isl[~facts.degenerate3d[isl] & (facts.det[isl] * s_cls[k] < 0)]
+        if s_area[k] >= share * s_area[main_of[s_island[k]]]:
+            if not _lies_on_its_neighbours(facts, fk, other, isl, rings):
+                out.add(int(k))
+            continue
         T = FUV[fk]
         E = np.stack([T[:, [0, 1, 2]], T[:, [1, 2, 0]], T[:, [2, 0, 1]]], 1).reshape(-1, 3)
         _, Eo = undirected_edges(FUV[other])
@@ -400,6 +408,19 @@ def _stacked_copies(facts, sheets, faces_of, s_island, s_cls, s_area, main_of, h
         if beyond.mean() <= 0.5:
             out.add(int(k))
     return out
+
+
+def _lies_on_its_neighbours(facts, fk, other, isl, rings):
+    """Whether faces ``fk`` overlap faces of ``other`` within ``rings`` rings of them (through the island
+    ``isl``'s rows) over more UV area than they overlap the rest of ``other``."""
+    a, b, area = overlap_pairs(facts.UV, facts.FUV, np.r_[fk, other], fk, areas=True)
+    mine = np.isin(a, fk)
+    i, j = np.where(mine, a, b), np.where(mine, b, a)
+    keep = np.isin(i, fk) & np.isin(j, other)
+    if not keep.any():
+        return False
+    near = within_rings(facts.FUV, isl, i[keep], j[keep], rings)
+    return bool(area[keep][near].sum() > area[keep][~near].sum())
 
 
 def _group(idx, lab, n):

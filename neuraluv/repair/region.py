@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from neuraluv.layout.facts import within_rings
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 
@@ -146,16 +147,5 @@ def intended_overlaps(UV, FUV, shell, bad, graph, rings=3, subset=None):
     n = np.flatnonzero(~keep)
     if len(n):
         i, j = np.where(bad[lo[n]], lo[n], hi[n]), np.where(bad[lo[n]], hi[n], lo[n])  # i broken
-        # j is within `rings` rings of i (rows grown `rings` times from i's, as IslandGraph.grow does) exactly when
-        # (G^(rings+1))[i, j] != 0, G the faces' adjacency through shared rows (each face its own neighbour)
-        pos = np.full(len(bad), -1)
-        pos[graph.faces] = np.arange(len(graph.faces))
-        G = (graph.M @ graph.MT).tocsr()
-        G.data[:] = 1.0
-        ui, inv = np.unique(i, return_inverse=True)
-        R = G[pos[ui]]
-        for _ in range(rings):
-            R = (R @ G).tocsr()
-            R.data[:] = 1.0
-        keep[n] = np.asarray(R[inv.reshape(-1), pos[j]]).reshape(-1) == 0
+        keep[n] = ~within_rings(FUV, graph.faces, i, j, rings)  # (rows grown as IslandGraph.grow does)
     return set(zip(lo[keep].tolist(), hi[keep].tolist()))
