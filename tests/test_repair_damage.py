@@ -106,6 +106,28 @@ def test_a_fold_where_twin_halves_lie_over_themselves_is_repaired_in_their_layer
         assert res.changed_rows.sum() <= 3 and res.changed_faces.sum() <= 18, (k, int(res.changed_faces.sum()))  # of 72
 
 
+def test_every_face_a_fold_reverses_on_twin_halves_is_a_fold_of_its_own_half():
+    # a fold of a few rings on rows two mirrored halves share flips faces of both halves at once, and each joins
+    # the other half's sheet (Blender's mirrored Suzanne: 37.5% of the reversed faces were taken for the mirrored
+    # copy's, data_scripts/purpose_fold_recall.py). By the surface each half is one layer: a face against its
+    # layer's orientation is a fold, whatever sheet it joined.
+    from neuraluv_paper.damage import local_fold
+
+    V, F, UV, FUV = twin_halves(8, 8)
+    f0 = layout_facts(V, F, UV, FUV)
+    right = V[F, 0].mean(1) > 0
+    for seed in (0, 1, 7):
+        bad, _ = local_fold(V, F, UV, FUV, rings=2, strength=2.5, seed=seed, rows=np.unique(FUV))
+        f = layout_facts(V, F, bad, FUV)
+        it = layout_intent(f)
+        reversed_ = f.det * f0.det < 0
+        assert reversed_.sum() >= 12 and it.fold[reversed_].all(), seed
+        assert not it.mirrored_shell[reversed_].any()
+        res = repair_layout(V, F, bad, FUV, purpose="texture", device="cpu")
+        g = layout_facts(V, F, res.UV, res.FUV)
+        assert res.after.validation["valid"] and (g.det[right] > 0).all() and (g.det[~right] < 0).all()
+
+
 def test_a_fold_no_local_step_repairs_on_twin_halves_gets_its_shell_resolved_on_its_own_rows(monkeypatch):
     # the last resort for a shell that shares every row with its twin (Blender's mirrored Suzanne, a fold at its
     # seam that no region, layer or untangle repaired): it was left folded and the output was invalid. Now the

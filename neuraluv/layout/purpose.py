@@ -35,12 +35,19 @@ Definitions (on the unit-box mesh):
   copy), or it is a region (an interior ``vt`` row) mapped as regularly as the
   main shell (median conformal distortion and area scale within
   :data:`REGULAR_FACTOR`) that holds :data:`COPY_SHARE` of the main shell's UV
-  area or meets the other orientation along a seam on the border of that
-  orientation's image. Every other sheet is a **fold**: two triangles on either
-  side of one edge in 3D lie on the same side of it in UV, so a sheet joined
-  along edges to the other orientation folds over it. In an island with a
-  stacked copy, two faces of one sheet on one ``vt`` edge that overlap are folds
-  too (a fold next to the seam joins the other layer's sheet);
+  area (and lies more on distant parts of the other orientation than on the
+  faces within :data:`NEAR_RINGS` rings of it: a region pushed over its own
+  neighbours is a fold) or meets the other orientation along a seam on the
+  border of that orientation's image. Every other sheet is a **fold**: two
+  triangles on either side of one edge in 3D lie on the same side of it in UV,
+  so a sheet joined along edges to the other orientation folds over it. In an
+  island with a stacked copy, two faces of one sheet on one ``vt`` edge that
+  overlap are folds too (a fold next to the seam joins the other layer's
+  sheet); and in an island of copies on the same ``vt`` rows at different
+  places in 3D (a mirror modifier's halves, an array's copies), each copy is one
+  **layer** (:func:`twin_layers`), and a face against its layer's orientation is
+  a fold of its layer's shell (a fold on shared rows flips a face and its twin
+  at once, and each joins the other copy's sheet);
 * a sheet of two or more faces whose UV points lie thinner than
   :data:`LINE_ASPECT` of their length is a **palette collapse** along a line; a
   sheet of UV-degenerate faces is one when its island has no other faces or it
@@ -49,23 +56,27 @@ Definitions (on the unit-box mesh):
   inside a shell (a problem).
 
 Limits, measured (``data_scripts/purpose_fold_recall.py``): on 114 layouts damaged by
-``neuraluv_paper.damage`` (local folds and vertex noise on eight real assets), 10.9% of the
-faces the damage reversed are taken for intent: 0–1.6% on the layouts without stacked
-copies, 18–38% where a fold straddles the seam of a stacked mirrored copy (tube, Duck,
-Blender's mirrored Suzanne) — its faces join the copy's sheet.
+``neuraluv_paper.damage`` (local folds and vertex noise on eight real assets), 7.9% of the
+faces the damage reversed are taken for intent: 0–2.5% on six of the eight (Blender's
+mirrored Suzanne among them: 37.5% before the twin layers), 18.2% on tube and 33.9% on Duck,
+where a fold straddles the seam of a stacked mirrored copy that shares no rows with the part it
+copies: its faces join the copy's sheet.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from neuraluv.layout import PURPOSES
 from neuraluv.layout.facts import holds_more, within_rings
 from neuraluv.layout.overlap import overlap_pairs, points_in_triangles
 from neuraluv.topology import faces_sharing, undirected_edges
 
-__all__ = ["PURPOSES", "STACKED_SHARE", "LayoutIntent", "layout_intent", "default_purpose", "check_purpose"]
+__all__ = ["PURPOSES", "STACKED_SHARE", "LayoutIntent", "layout_intent", "twin_layers", "default_purpose",
+           "check_purpose"]
 
 #: A sheet of the other orientation joined to its island along ``vt`` edges is a stacked copy (intentional),
 #: not a fold, when at least this share of its UV area lies on faces of the other orientation with exactly
@@ -82,6 +93,10 @@ COPY_SHARE = 0.1
 #: Rings around a stacked copy candidate within which the faces it lies on are its own neighbours (a fold pushed
 #: over them), not the part it copies (:func:`_stacked_copies`).
 NEAR_RINGS = 3
+
+#: Copies on the same ``vt`` rows whose 3D centroids lie further apart than this (unit-box units) are copies at
+#: different places (a mirror modifier's halves, an array's), not a double-sided face and its back.
+TWIN_APART = 1e-9
 
 #: A sheet whose UV points are thinner than this share of their length is collapsed along a line (a palette).
 LINE_ASPECT = 1e-3
@@ -336,16 +351,110 @@ def layout_intent(facts, *, stacked_share=STACKED_SHARE):
         shell_of_sheet[k] = shell_of_sheet[host[k]]
     shell[idx] = shell_of_sheet[s_lab]
     fold[idx] |= role[s_lab] == 2
+    # copies on the same rows at different places in 3D (a mirror modifier's halves, an array's copies): a fold on
+    # rows they share flips a face and its twin at once, and each joins the other copy's sheet; by the surface
+    # each copy is one layer, and a face against its layer's orientation is a fold, of its layer's shell
+    _layer_folds(facts, cls, idx, shell, fold)
     small_fold = facts.small_folds(fold)  # folds no texture at the resolution shows: noted, left alone
     fold &= ~small_fold
     degenerate[idx] = role[s_lab] == 3
     palette[idx] = role[s_lab] == 4
     shell_sign = s_cls[shells]
-    mirrored_shell[idx] = (role[s_lab] == 1) & (s_cls[s_lab] == -1)
+    mirrored_shell[idx] = (role[s_lab] == 1) & (s_cls[s_lab] == -1) & ~(fold | small_fold)[idx]
     it = LayoutIntent(sheet, cls, shell, shell_sign.astype(np.int64), s_island[shells], fold, degenerate,
                       palette, mirrored_shell, info={"sheets": int(n_sheets)}, small_fold=small_fold)
     facts._cache[key] = it
     return it
+
+
+def twin_layers(F, FUV, faces):
+    """The layers of an island whose stacked halves share ``vt`` rows: its faces joined through edges shared in
+    3D *and* in UV, never a face to its twin (a face with the same three ``vt`` rows).
+
+    A mirror modifier's halves that share their rows are one island, and a fold on the shared rows folds both
+    halves at once: each half's folded faces then lie, by orientation, in the other half's sheet. A half is
+    still what the surface joins: its faces meet along 3D edges, and where the halves meet (the mirror plane)
+    the face across the edge is the twin.
+
+    Parameters
+    ----------
+    F, FUV : (m,3) int arrays
+    faces : (k,) int array, the island's faces
+
+    Returns
+    -------
+    layer : (k,) int array, the layer of each face of ``faces``
+    twin : (k,) int array, per face the index (into ``faces``) of a twin, -1 where none
+    """
+    faces = np.asarray(faces, np.int64)
+    key = (faces.tobytes(), np.asarray(F)[faces].tobytes(), np.asarray(FUV)[faces].tobytes())
+    if key not in _LAYERS:  # read once per island and texture indices: every fold of the island asks again
+        if len(_LAYERS) >= 8:
+            _LAYERS.pop(next(iter(_LAYERS)))
+        _LAYERS[key] = tuple(a.setflags(write=False) or a for a in _twin_layers(F, FUV, faces))
+    return _LAYERS[key]
+
+
+_LAYERS = {}  # twin_layers' last results, by (faces, their F rows, their FUV rows)
+
+
+def _twin_layers(F, FUV, faces):
+    k = len(faces)
+    T = np.sort(np.asarray(FUV)[faces], 1)
+    _, group = np.unique(T, axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    twin = -np.ones(k, np.int64)
+    order = np.argsort(group, kind="stable")
+    pair = group[order[1:]] == group[order[:-1]]
+    twin[order[1:][pair]], twin[order[:-1][pair]] = order[:-1][pair], order[1:][pair]
+    e3, eu = undirected_edges(np.asarray(F)[faces])[1], undirected_edges(np.asarray(FUV)[faces])[1]
+    _, key = np.unique(np.c_[e3, eu], axis=0, return_inverse=True)
+    key = key.reshape(-1)
+    fid = np.tile(np.arange(k), 3)
+    order = np.argsort(key, kind="stable")
+    same = key[order[1:]] == key[order[:-1]]
+    a, b = fid[order[:-1][same]], fid[order[1:][same]]
+    keep = group[a] != group[b]
+    A = sp.coo_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])), shape=(k, k))
+    return connected_components(A, directed=False)[1], twin
+
+
+def _layer_folds(facts, cls, idx, shell, fold):
+    """Mark (in place) the faces against their twin layer's orientation as folds of their layer's shell (faces
+    that are folds already keep theirs).
+
+    Only islands with copies on the same ``vt`` rows at different places in 3D (:func:`twin_layers`; a
+    double-sided face and its back coincide in 3D and are no such copy). A layer's orientation is the one
+    holding more of it (:func:`~neuraluv.layout.facts.holds_more`); its shell, the one most of its faces of
+    that orientation lie in.
+    """
+    use = idx[cls[idx] != 0]
+    if not len(use):
+        return
+    _, inv = np.unique(np.c_[np.sort(facts.FUV[use], 1), facts.label[use]], axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    c = facts.Vn[facts.F[use]].mean(1)
+    lo = np.full((int(inv.max()) + 1, 3), np.inf)
+    hi = -lo
+    np.minimum.at(lo, inv, c)
+    np.maximum.at(hi, inv, c)
+    apart = (hi - lo).max(1)[inv] > TWIN_APART
+    a2, a3 = np.abs(np.nan_to_num(facts.signed_uv)), facts.area3d
+    for i in np.unique(facts.label[use[apart]]):
+        faces = use[facts.label[use] == i]
+        layer, _ = twin_layers(facts.F, facts.FUV, faces)
+        for lay in np.unique(layer):
+            m = faces[layer == lay]
+            pos, neg = m[cls[m] > 0], m[cls[m] < 0]
+            if not len(pos) or not len(neg):
+                continue
+            against, along = (pos, neg) if holds_more(a2[neg].sum(), a2[pos].sum(), a3[neg].sum(),
+                                                      a3[pos].sum()) else (neg, pos)
+            hosts = shell[along][shell[along] >= 0]
+            new = against[~fold[against]]  # folds read off the sheets keep the shell they were given
+            if len(hosts) and len(new):
+                fold[new] = True
+                shell[new] = np.bincount(hosts).argmax()
 
 
 def _on_a_line(P, rel=LINE_ASPECT):

@@ -30,6 +30,7 @@ import numpy as np
 
 from neuraluv import datasets
 from neuraluv.cli import main as cli
+from neuraluv.errors import NeuralUVError
 from neuraluv.io import patch_obj, read_gltf_layout, read_layout, write_gltf_uvs
 from neuraluv.layout.facts import layout_facts
 from neuraluv_paper import damage
@@ -149,15 +150,23 @@ def _repair_row(asset, case, path, out, tmp, untouched=None):
     return row
 
 
-def bench(*, output="results/authored", seed=0, damaged=True, argv=None, show_progress=True):
-    """Run the authored-asset benchmark; writes ``authored.{csv,md}``; returns :class:`BenchOutput`."""
+def bench(*, output="results/authored", seed=0, damaged=True, meshes=None, argv=None, show_progress=True):
+    """Run the authored-asset benchmark; writes ``authored.{csv,md}``; returns :class:`BenchOutput`.
+
+    ``meshes``: only these assets (file names, with or without their suffix); default all.
+    """
+    names = sorted(f for f in datasets.AUTHORED if Path(f).suffix.lower() in (".obj", ".glb"))
+    if meshes:
+        unknown = [m for m in meshes if not any(m in (f, Path(f).stem) for f in names)]
+        if unknown:
+            raise NeuralUVError(f"not an authored asset: {', '.join(unknown)} (they are: "
+                                f"{', '.join(Path(f).stem for f in names)})")
+        names = [f for f in names if f in meshes or Path(f).stem in meshes]
     out_dir = Path(output)
     out_dir.mkdir(parents=True, exist_ok=True)
     machine = machine_info("cpu")
     assets, notes = [], []
-    for fname in sorted(datasets.AUTHORED):
-        if Path(fname).suffix.lower() not in (".obj", ".glb"):
-            continue
+    for fname in names:
         try:
             assets.append((fname, datasets.authored_path(fname)))
             for c in _COMPANIONS.get(fname, []):
@@ -291,6 +300,7 @@ def _markdown(rows, notes):
 
 
 def run(args):
-    out = bench(output=args.output, seed=args.seed, damaged=not args.no_damage, show_progress=not args.quiet)
+    out = bench(output=args.output, seed=args.seed, damaged=not args.no_damage, meshes=args.meshes,
+                show_progress=not args.quiet)
     print(f"wrote {', '.join(str(f) for f in out.files)}")
     return 0
