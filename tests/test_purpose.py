@@ -210,6 +210,42 @@ def test_glb_lightmap_goes_to_a_uv_set_of_its_own(tmp_path, capsys):
     assert v["valid"] and v["flips"] == 0 and v["overlapping_pairs"] == 0 and v["mirrored_islands"] == 0
 
 
+def test_a_glb_lightmap_covers_the_primitives_without_the_uv_set(tmp_path, capsys):
+    # a textured part and an untextured one (a truck's glass): a lightmap is baked over the whole mesh, so under
+    # --purpose lightmap the untextured part's faces are faces without texture coordinates (check names them,
+    # repair gives them charts), and the new set has one index on both parts
+    import trimesh
+
+    from conftest import gltf_validate
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.layout.validate import validate_layout
+
+    textured = trimesh.creation.box()
+    textured.visual = trimesh.visual.TextureVisuals(uv=textured.vertices[:, :2] * 0.4 + 0.5)
+    scene = trimesh.Scene()
+    scene.add_geometry(textured, geom_name="textured")
+    scene.add_geometry(trimesh.creation.icosphere(1), geom_name="glass",
+                       transform=trimesh.transformations.translation_matrix([3, 0, 0]))
+    src, out = tmp_path / "two.glb", tmp_path / "lm.glb"
+    src.write_bytes(scene.export(file_type="glb"))
+    main(["check", "--uv", str(src), "--purpose", "lightmap"])
+    assert "problem: 80 faces without texture coordinates" in capsys.readouterr().out
+    assert main(["repair", str(src), "-o", str(out), "--purpose", "lightmap", "--preset", "test", "--device", "cpu",
+                 "--resolution", "256", "--padding", "2"]) == 0, capsys.readouterr()
+    assert "1 primitive(s) without the lower UV sets" in capsys.readouterr().out
+    lm = read_gltf_layout(out, 1)
+    assert len(lm.F) == 12 + 80 and len(lm.blocks) == 2
+    v = validate_layout(lm.V, lm.F, lm.UV, lm.FUV, padding=2, resolution=256)
+    assert v["valid"] and v["flips"] == 0 and v["overlapping_pairs"] == 0 and v["padding_violations"] == 0
+    a, b = read_gltf_layout(src, 0), read_gltf_layout(out, {(0, 0): 0})  # the textured part's own set: as it was
+    assert np.array_equal(a.UV[a.FUV], b.UV[b.FUV])
+    main(["check", "--uv", str(src)])  # the texture purpose reads the textured part only
+    assert "12 faces" in capsys.readouterr().out
+    r = gltf_validate(out)
+    assert r is None or r["errors"] == 0, r
+
+
 def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
     from neuraluv.errors import NeuralUVError
     from neuraluv.io import read_gltf_layout

@@ -168,6 +168,14 @@ def _print_textures(textures):
                   + ("" if t["ok"] else " — above the 1-level mean we hold a re-bake to: inspect it"))
 
 
+def _read_for(args, inp):
+    """The layout check and repair read: under ``--purpose bake`` / ``lightmap`` a glTF's triangle primitives
+    without the UV set too (a layout to bake into covers the whole mesh; their faces get charts of their own)."""
+    from neuraluv.io import read_layout
+
+    return read_layout(inp, args.uv_set, untextured=args.purpose in ("bake", "lightmap"))
+
+
 def _purpose(args, inp, data):
     """The purpose asked for, or the default for this file, and a one-line reason."""
     from neuraluv.io import layout_materials
@@ -180,11 +188,10 @@ def _purpose(args, inp, data):
 
 
 def cmd_check_uv(args):
-    from neuraluv.io import read_layout
     from neuraluv.repair.diagnose import diagnose_layout
 
     inp, _, _ = check_paths(args.input, input_exts=(".obj", ".glb", ".gltf"))
-    V, F, UV, FUV, data = read_layout(inp, args.uv_set)
+    V, F, UV, FUV, data = _read_for(args, inp)
     purpose, why = _purpose(args, inp, data)
     d = diagnose_layout(V, F, UV, FUV, resolution=args.resolution, padding=args.padding, purpose=purpose,
                         min_defect=args.min_defect)
@@ -205,7 +212,7 @@ def cmd_check_uv(args):
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.io import (GltfLayout, patch_obj, read_gltf_layout, read_layout, staged_outputs, write_gltf_uvs,
+    from neuraluv.io import (GltfLayout, patch_obj, read_gltf_layout, staged_outputs, write_gltf_uvs,
                              write_json)
     from neuraluv.layout.validate import validate_layout
     from neuraluv.repair.repair import repair_layout
@@ -220,7 +227,7 @@ def cmd_repair(args):
         raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
     if not args.no_neural:
         resolve_device(args.device)
-    V, F, UV, FUV, data = read_layout(inp, args.uv_set)
+    V, F, UV, FUV, data = _read_for(args, inp)
     purpose, why = _purpose(args, inp, data)
     print(f"purpose: {purpose} ({why})")
     gltf = isinstance(data, GltfLayout)
@@ -294,9 +301,13 @@ def cmd_repair(args):
     _print_textures(textures)
     if gltf and isinstance(written, dict) and "texcoord" in written:
         print(f"  {'added' if add else 'replaced'} UV set TEXCOORD_{read_set}"
-              + (f"; TEXCOORD_{args.uv_set} untouched" if add else "")
+              + (f"; TEXCOORD_{args.uv_set} untouched" + (" where the file had it" if written.get("filled") else "")
+                 if add else "")
               + (f"; {written['primitives_split']} primitive(s) had vertices split (attributes copied)"
-                 if written["primitives_split"] else ""))
+                 if written["primitives_split"] else "")
+              + (f"; {len(written['filled'])} primitive(s) without the lower UV sets (faces without texture "
+                 "coordinates, given charts) got the new layout there too (glTF numbers UV sets from 0)"
+                 if written.get("filled") else ""))
     if not back["valid"]:
         what = (f"{back['folded_faces']} folded and {back['degenerate_faces']} UV-degenerate faces inside shells, "
                 f"{back['faces'] - back['covered_faces'] + back['non_finite_faces']} faces without usable UVs"

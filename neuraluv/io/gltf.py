@@ -180,7 +180,8 @@ class GltfLayout:
     Attributes
     ----------
     V : (n,3) float array, world positions (one row per vertex of each read primitive).
-    F : (m,3) int array; UV : (n,2) float array, ``v`` flipped to the OBJ convention; FUV : (m,3) = ``F``.
+    F : (m,3) int array; UV : (n,2) float array, ``v`` flipped to the OBJ convention; FUV : (m,3) = ``F``
+        (-1 on the faces of primitives read without the UV set).
     blocks : list of dict, one per primitive read: ``mesh``, ``primitive``, ``uv_accessor``, ``rows`` (first row,
         count), ``faces`` (first face, count), ``mode``, ``indices`` (the primitive's triangle rows, local).
     skipped : list of str, primitives left out and why.
@@ -200,7 +201,7 @@ class GltfLayout:
     textures: int = 0
 
 
-def read_gltf_layout(path, texcoord=0):
+def read_gltf_layout(path, texcoord=0, *, untextured=False):
     """Read the ``TEXCOORD_<texcoord>`` layout of every triangle primitive of a glTF / GLB file.
 
     Parameters
@@ -209,6 +210,10 @@ def read_gltf_layout(path, texcoord=0):
     texcoord : int, dict or None
         The UV set: one index for every primitive, a dict ``{(mesh, primitive): index}`` (primitives not in
         it are left out), or None for every triangle primitive's geometry with zero UVs (a mesh to unwrap).
+    untextured : bool
+        Read the triangle primitives without that UV set too, as faces without texture coordinates
+        (``FUV`` -1, as an OBJ's faces without ``vt``: a layout for the whole mesh, a lightmap, gives them
+        charts of their own).
 
     Returns
     -------
@@ -221,7 +226,7 @@ def read_gltf_layout(path, texcoord=0):
     """
     doc = load_gltf(path)
     world = _world_matrices(doc)
-    Vs, Fs, Us, blocks, skipped = [], [], [], [], []
+    Vs, Fs, Us, blocks, skipped, untextured_faces = [], [], [], [], [], []
     rows = faces = 0
     done = {}
     for mi, mesh in enumerate(doc.json.get("meshes", [])):
@@ -237,7 +242,8 @@ def read_gltf_layout(path, texcoord=0):
             if isinstance(texcoord, dict) and k is None:
                 skipped.append(f"{where}: not asked for")
                 continue
-            if (name is not None and name not in attrs) or "POSITION" not in attrs:
+            missing = name is not None and name not in attrs
+            if (missing and not untextured) or "POSITION" not in attrs:
                 skipped.append(f"{where}: no {name or 'POSITION'}" + (" (not textured by this UV set)" if name else ""))
                 continue
             key = (attrs["POSITION"], attrs.get(name), prim.get("indices"), mode)
@@ -246,7 +252,7 @@ def read_gltf_layout(path, texcoord=0):
                 continue
             done[key] = where
             P = _accessor(doc, attrs["POSITION"]).astype(float)
-            T = _accessor(doc, attrs[name]).astype(float) if name else np.zeros((len(P), 2))
+            T = np.zeros((len(P), 2)) if not name or missing else _accessor(doc, attrs[name]).astype(float)
             if len(T) != len(P):
                 raise NeuralUVError(f"{Path(path).name}: {where}: {name} has {len(T)} entries, POSITION {len(P)}")
             idx = _accessor(doc, prim["indices"]).reshape(-1) if "indices" in prim else np.arange(len(P))
@@ -257,6 +263,8 @@ def read_gltf_layout(path, texcoord=0):
             Vs.append(P @ M[:3, :3].T + M[:3, 3])
             Us.append(np.c_[T[:, 0], 1.0 - T[:, 1]])
             Fs.append(tri + rows)
+            if missing:
+                untextured_faces.append(np.arange(faces, faces + len(tri)))
             blocks.append({"mesh": mi, "primitive": pi, "uv_accessor": attrs.get(name), "rows": (rows, len(P)),
                            "faces": (faces, len(tri)), "mode": mode, "indices": tri})
             rows += len(P)
@@ -272,7 +280,10 @@ def read_gltf_layout(path, texcoord=0):
     if bad.any():
         raise NeuralUVError(f"{Path(path).name} has {int(bad.sum())} vertices with NaN or infinite coordinates "
                             "(after the node transforms); fix or remove them")
-    return GltfLayout(V=V, F=F, UV=np.vstack(Us), FUV=F.copy(), blocks=blocks, skipped=skipped,
+    FUV = F.copy()
+    if untextured_faces:  # faces without texture coordinates, as an OBJ's faces without vt
+        FUV[np.concatenate(untextured_faces)] = -1
+    return GltfLayout(V=V, F=F, UV=np.vstack(Us), FUV=FUV, blocks=blocks, skipped=skipped,
                       texcoord=texcoord if texcoord is None or isinstance(texcoord, dict) else int(texcoord),
                       doc=doc, materials=len(doc.json.get("materials", [])),
                       textures=len(doc.json.get("textures", [])))
@@ -373,13 +384,14 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
     prims = [doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]] for b in layout.blocks]
     k_add = max(_free_set(p) for p in prims)
 
-    def put(b, prim, acc):  # the new layout as TEXCOORD_k_add, lower sets the primitive lacks filled with it
-        gaps = [j for j in range(k_add) if f"TEXCOORD_{j}" not in prim["attributes"]]
-        for j in gaps + [k_add]:
+    def put(b, prim, acc, k=None):  # the new layout as TEXCOORD_k (k_add), lower sets the primitive lacks filled with it
+        k = k_add if k is None else k
+        gaps = [j for j in range(k) if f"TEXCOORD_{j}" not in prim["attributes"]]
+        for j in gaps + [k]:
             prim["attributes"][f"TEXCOORD_{j}"] = acc
         if gaps:
             info["filled"].append((b["mesh"], b["primitive"], gaps))
-        info["texcoord"].append(k_add)
+        info["texcoord"].append(k)
 
     for b, prim in zip(layout.blocks, prims):
         r0, nr = b["rows"]
@@ -397,8 +409,8 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
                     info["texcoord"].append(layout.texcoord)
                     continue
                 acc_i = b["uv_accessor"]
-                acc = doc.json["accessors"][acc_i]
-                if acc["componentType"] == 5126 and "bufferView" in acc and "sparse" not in acc:
+                acc = doc.json["accessors"][acc_i] if acc_i is not None else {}
+                if acc.get("componentType") == 5126 and "bufferView" in acc and "sparse" not in acc:
                     bv = doc.json["bufferViews"][acc["bufferView"]]
                     start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
                     stride = bv.get("byteStride") or 8
@@ -409,8 +421,9 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
                     if "min" in acc or "max" in acc:  # declared bounds must stay true (the validator checks them)
                         vals = _accessor(doc, acc_i)
                         acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
-                else:  # a normalized integer (or odd) accessor: a float one in its place
-                    prim["attributes"][f"TEXCOORD_{layout.texcoord}"] = _new_accessor(doc, _float_uv(UV[vrow]))
+                else:  # a normalized integer (or odd) accessor, or none (read untextured): a float one in its place
+                    put(b, prim, _new_accessor(doc, _float_uv(UV[vrow])), layout.texcoord)
+                    continue
                 info["texcoord"].append(layout.texcoord)
             else:
                 put(b, prim, _new_accessor(doc, _float_uv(UV[vrow])))
@@ -429,11 +442,7 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
             for name, ai in list(t.items()):
                 t[name] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
         acc = _new_accessor(doc, _float_uv(UV[uniq[:, 1]]))
-        if mode == "replace":
-            prim["attributes"][f"TEXCOORD_{layout.texcoord}"] = acc
-            info["texcoord"].append(layout.texcoord)
-        else:
-            put(b, prim, acc)
+        put(b, prim, acc, layout.texcoord if mode == "replace" else None)
         tri = inv.reshape(-1).astype(np.uint32 if len(uniq) > 65535 else np.uint16)
         prim["indices"] = _new_accessor(doc, tri.reshape(-1, 1), target=34963)
         prim["mode"] = 4

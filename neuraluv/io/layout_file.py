@@ -20,7 +20,7 @@ MAP_KEYS = (b"map_ka", b"map_kd", b"map_ks", b"map_ke", b"map_ns", b"map_d", b"m
             b"disp", b"decal", b"map_pr", b"map_pm", b"map_ps")
 
 
-def read_layout(path, uv_set=0):
+def read_layout(path, uv_set=0, *, untextured=False):
     """``(V, F, UV, FUV, data)`` of a textured OBJ (``data``: its :class:`~neuraluv.io.obj.ObjData`, lines kept)
     or glTF / GLB (``data``: its :class:`~neuraluv.io.gltf.GltfLayout`); one-line errors for everything else.
 
@@ -29,6 +29,9 @@ def read_layout(path, uv_set=0):
     path : str or Path
     uv_set : int
         The glTF UV set ``TEXCOORD_<uv_set>`` (an OBJ has one: 0).
+    untextured : bool
+        glTF: the triangle primitives without that set too, as faces without texture coordinates
+        (:func:`~neuraluv.io.gltf.read_gltf_layout`; an OBJ's faces without ``vt`` are always read).
     """
     from neuraluv.io.gltf import read_gltf_layout
     from neuraluv.io.mesh import check_mesh_arrays, check_mesh_file
@@ -47,7 +50,7 @@ def read_layout(path, uv_set=0):
                                 "make a layout")
         return V, F, UV, FUV, data
     try:
-        lay = read_gltf_layout(path, uv_set)
+        lay = read_gltf_layout(path, uv_set, untextured=untextured)
     except NeuralUVError:
         raise
     except (ValueError, KeyError, IndexError, TypeError, struct.error) as exc:  # malformed JSON structure: one line

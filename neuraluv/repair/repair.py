@@ -122,7 +122,9 @@ class RepairResult:
             return (head + f"folded faces {a['folded_faces']} -> {b['folded_faces']}, UV-degenerate "
                     f"{a['degenerate_faces']} -> {b['degenerate_faces']}, faces without usable UVs {lost[0]} -> "
                     f"{lost[1]} (texture purpose: mirrored, stacked, tiled and palette shells kept); {self.time:.1f}s")
-        return (head + f"flips {a['flips']} -> {b['flips']}, "
+        lost = [v["faces"] - v["covered_faces"] + v["non_finite_faces"] for v in (a, b)]
+        return (head + f"flips {a['flips'] - lost[0]} -> {b['flips'] - lost[1]}"
+                + (f" (and faces without usable UVs {lost[0]} -> {lost[1]})" if any(lost) else "") + ", "
                 f"overlapping island pairs {a['overlapping_pairs']} -> {b['overlapping_pairs']}, "
                 f"self-overlapping islands {a['self_overlapping_islands']} -> {b['self_overlapping_islands']}, "
                 f"in [0,1]²: {'yes' if b['uv_in_unit_square'] else 'no'}"
