@@ -246,6 +246,47 @@ def test_a_glb_lightmap_covers_the_primitives_without_the_uv_set(tmp_path, capsy
     assert r is None or r["errors"] == 0, r
 
 
+def test_a_flat_shaded_glb_is_read_as_one_island_and_its_fold_repaired(tmp_path, capsys):
+    # an exporter splits every vertex of a flat-shaded (or hard-edged) mesh per face, for its normals: read one
+    # row per vertex, each triangle was an island of its own, and a fold's reversed faces read as mirrored
+    # islands (intent). The rows of an edge two faces share in 3D and in UV are one row of the map.
+    import trimesh
+
+    from conftest import grid
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.layout.facts import layout_facts
+
+    V, F = grid(6, 3)
+    V = np.c_[V[:, 0], V[:, 1], 0.2 * np.sin(V[:, 0])]
+    UV = V[:, :2] / 8 + 0.1
+    bad = UV.copy()
+    bad[10] += [0.2, 0.02]  # an interior vertex pushed over its neighbours
+
+    def flat(uv, name):
+        mesh = trimesh.Trimesh(V[F].reshape(-1, 3), np.arange(3 * len(F)).reshape(-1, 3), process=False,
+                               visual=trimesh.visual.TextureVisuals(uv=uv[F].reshape(-1, 2)))
+        p = tmp_path / name
+        p.write_bytes(mesh.export(file_type="glb"))
+        return p
+
+    good, src = flat(UV, "good.glb"), flat(bad, "bad.glb")
+    lay = read_gltf_layout(good)
+    assert len(lay.UV) == 3 * len(F) and layout_facts(lay.V, lay.F, lay.UV, lay.FUV).n_islands == 1
+    raw = read_gltf_layout(good, weld=False)  # one row per vertex: a triangle each
+    assert layout_facts(raw.V, raw.F, raw.UV, raw.FUV).n_islands == len(F)
+    main(["check", "--uv", str(src)])
+    out = capsys.readouterr().out
+    assert "1 UV islands" in out and "folded faces" in out and "mirrored" not in out
+    assert main(["repair", str(src), "-o", str(tmp_path / "fixed.glb"), "--preset", "test", "--device", "cpu",
+                 "--no-rebake"]) == 0, capsys.readouterr()
+    fixed = read_gltf_layout(tmp_path / "fixed.glb")
+    f = layout_facts(fixed.V, fixed.F, fixed.UV, fixed.FUV)
+    assert f.n_islands == 1 and (f.det > 0).all()
+    assert main(["repair", str(good), "-o", str(tmp_path / "same.glb")]) == 0
+    assert (tmp_path / "same.glb").read_bytes() == good.read_bytes()  # only intent: byte-identical
+
+
 def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
     from neuraluv.errors import NeuralUVError
     from neuraluv.io import read_gltf_layout

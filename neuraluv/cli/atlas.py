@@ -170,10 +170,13 @@ def _print_textures(textures):
 
 def _read_for(args, inp):
     """The layout check and repair read: under ``--purpose bake`` / ``lightmap`` a glTF's triangle primitives
-    without the UV set too (a layout to bake into covers the whole mesh; their faces get charts of their own)."""
+    without the UV set too (a layout to bake into covers the whole mesh; their faces get charts of their own),
+    one row per vertex; under ``texture`` the rows of vertices split only for their normals joined (the map's
+    islands and folds, as an OBJ's shared ``vt`` gives them)."""
     from neuraluv.io import read_layout
 
-    return read_layout(inp, args.uv_set, untextured=args.purpose in ("bake", "lightmap"))
+    whole = args.purpose in ("bake", "lightmap")
+    return read_layout(inp, args.uv_set, untextured=whole, weld=not whole)
 
 
 def _purpose(args, inp, data):
@@ -273,7 +276,7 @@ def cmd_repair(args):
         # the verdict is taken on the written file, by the same purpose's rules as the check
         try:
             if gltf and out.suffix.lower() == ".glb":
-                lay2 = read_gltf_layout(tmp, read_set)
+                lay2 = read_gltf_layout(tmp, read_set, weld=purpose == "texture")  # read as the input was
                 V2, F2, UV2, FUV2 = lay2.V, lay2.F, lay2.UV, lay2.FUV
             else:
                 V2, F2, UV2, FUV2 = read_atlas(tmp)

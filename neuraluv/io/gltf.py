@@ -6,7 +6,10 @@ have the asked-for ``TEXCOORD_n``: positions in world coordinates (the first nod
 that instances the mesh; distortion needs consistent scale), triangles (strips and
 fans unrolled), and the texture coordinates with ``v`` flipped to the OBJ
 convention (glTF's origin is the image's top-left corner). Primitives without
-that UV set, points and lines are left out and listed.
+that UV set, points and lines are left out and listed. A glTF vertex is split
+for its normals as well as for its UVs (hard edges, flat shading): the rows of
+an edge two faces share in 3D and in UV are joined (:func:`seamless_rows`), so
+that islands and folds are read as the map has them, as an OBJ's shared ``vt``.
 
 :func:`write_gltf_uvs` writes the binary glTF (GLB) back: every byte of the
 input — nodes, transforms, normals, materials, images, skins, other UV sets,
@@ -159,6 +162,66 @@ def _world_matrices(doc):
     return out
 
 
+def seamless_rows(V, F, UV, FUV):
+    """The row each row is joined with: rows at the ends of an edge two faces share in 3D and in UV (both ends
+    at bit-identical positions and UVs) though not in rows. A glTF exporter splits a vertex for its normals
+    (hard edges, flat shading) as well as for its UVs; the faces on either side of such a split are one
+    piece of the map, and the layout's topology (islands, folds, rings) is read on the joined rows.
+    Faces that merely touch at a point, and faces without UV area (a palette's), join nothing.
+
+    Parameters
+    ----------
+    V : (n,3) float array; F, FUV : (m,3) int arrays (``FUV`` -1 where a face has no UVs); UV : (p,2) float array
+
+    Returns
+    -------
+    canon : (p,) int array, ``canon[r] <= r``, each group mapped to its smallest row.
+
+    Examples
+    --------
+    Two triangles of a square, flat shaded (each with vertices of its own), one UV map:
+
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    >>> F = np.array([[0, 1, 2], [3, 4, 5]])
+    >>> seamless_rows(V, F, V[:, :2], F).tolist()
+    [0, 1, 2, 1, 4, 2]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    p = len(UV)
+    ok = (FUV >= 0).all(1)
+    ok[ok] = np.isfinite(UV[FUV[ok]]).all(axis=(1, 2))
+    T = UV[FUV[ok]]
+    ok[ok] = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]) != 0  # a face collapsed in UV (a palette's) joins nothing
+    if not ok.any() or len(np.unique(UV[np.isfinite(UV).all(1)], axis=0)) == np.isfinite(UV).all(1).sum():
+        return np.arange(p)
+    f = np.flatnonzero(ok)
+    rows = FUV[f].reshape(-1)
+    key = np.c_[UV[rows], np.asarray(V, float)[np.asarray(F, np.int64)[f].reshape(-1)]]
+    _, corner = np.unique(key, axis=0, return_inverse=True)
+    corner = corner.reshape(-1, 3)  # per corner: its (UV, 3D) point
+    R = rows.reshape(-1, 3)
+    a, b = [0, 1, 2], [1, 2, 0]
+    pa, pb = corner[:, a].reshape(-1), corner[:, b].reshape(-1)
+    ra, rb = R[:, a].reshape(-1), R[:, b].reshape(-1)
+    swap = pa > pb
+    e = np.c_[np.where(swap, pb, pa), np.where(swap, pa, pb)]
+    r1, r2 = np.where(swap, rb, ra), np.where(swap, ra, rb)  # the rows at the edge's first and second point
+    _, eid = np.unique(e, axis=0, return_inverse=True)
+    eid = eid.reshape(-1)
+    first = np.full(eid.max() + 1, -1)
+    first[eid[::-1]] = np.arange(len(eid))[::-1]  # one occurrence of each edge: the others join its rows
+    j = first[eid]
+    i = np.r_[r1, r2]
+    k = np.r_[r1[j], r2[j]]
+    A = coo_matrix((np.ones(len(i)), (i, k)), shape=(p, p))
+    _, comp = connected_components(A, directed=False)
+    low = np.full(comp.max() + 1, p, np.int64)
+    np.minimum.at(low, comp, np.arange(p))
+    return low[comp]
+
+
 def _triangles(idx, mode):
     """Triangle index rows of a primitive's index list under its mode (4 list, 5 strip, 6 fan)."""
     idx = np.asarray(idx, np.int64).reshape(-1)
@@ -180,8 +243,9 @@ class GltfLayout:
     Attributes
     ----------
     V : (n,3) float array, world positions (one row per vertex of each read primitive).
-    F : (m,3) int array; UV : (n,2) float array, ``v`` flipped to the OBJ convention; FUV : (m,3) = ``F``
-        (-1 on the faces of primitives read without the UV set).
+    F : (m,3) int array; UV : (n,2) float array, ``v`` flipped to the OBJ convention; FUV : (m,3) int array,
+        ``F`` with the rows of vertices split only for their normals joined (:func:`seamless_rows`: the map's
+        topology, as an OBJ's shared ``vt``); -1 on the faces of primitives read without the UV set.
     blocks : list of dict, one per primitive read: ``mesh``, ``primitive``, ``uv_accessor``, ``rows`` (first row,
         count), ``faces`` (first face, count), ``mode``, ``indices`` (the primitive's triangle rows, local).
     skipped : list of str, primitives left out and why.
@@ -201,7 +265,7 @@ class GltfLayout:
     textures: int = 0
 
 
-def read_gltf_layout(path, texcoord=0, *, untextured=False):
+def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
     """Read the ``TEXCOORD_<texcoord>`` layout of every triangle primitive of a glTF / GLB file.
 
     Parameters
@@ -214,6 +278,10 @@ def read_gltf_layout(path, texcoord=0, *, untextured=False):
         Read the triangle primitives without that UV set too, as faces without texture coordinates
         (``FUV`` -1, as an OBJ's faces without ``vt``: a layout for the whole mesh, a lightmap, gives them
         charts of their own).
+    weld : bool
+        Join the rows of vertices split only for their normals (:func:`seamless_rows`), so that the layout's
+        islands and folds are read as the map has them (as an OBJ's shared ``vt``); False: one row per vertex
+        (a layout about to be replaced by a new one, a lightmap, needs no such reading).
 
     Returns
     -------
@@ -283,7 +351,11 @@ def read_gltf_layout(path, texcoord=0, *, untextured=False):
     FUV = F.copy()
     if untextured_faces:  # faces without texture coordinates, as an OBJ's faces without vt
         FUV[np.concatenate(untextured_faces)] = -1
-    return GltfLayout(V=V, F=F, UV=np.vstack(Us), FUV=FUV, blocks=blocks, skipped=skipped,
+    UV = np.vstack(Us)
+    if weld and texcoord is not None:  # a vertex split for its normals is no seam of the map
+        canon = seamless_rows(V, F, UV, FUV)
+        FUV = np.where(FUV >= 0, canon[np.maximum(FUV, 0)], -1)
+    return GltfLayout(V=V, F=F, UV=UV, FUV=FUV, blocks=blocks, skipped=skipped,
                       texcoord=texcoord if texcoord is None or isinstance(texcoord, dict) else int(texcoord),
                       doc=doc, materials=len(doc.json.get("materials", [])),
                       textures=len(doc.json.get("textures", [])))
@@ -400,10 +472,12 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
         local = b["indices"]  # (nf,3) vertex of each corner
         # the row each vertex needs: one per vertex unless the layout split it
         pairs = np.unique(np.c_[local.reshape(-1), own.reshape(-1)], axis=0)
-        split = len(pairs) != len(np.unique(pairs[:, 0])) or (own.reshape(-1) != local.reshape(-1) + r0).any()
+        split = len(pairs) != len(np.unique(pairs[:, 0]))
         if not split:
             vrow = np.arange(nr) + r0
-            changed = ~same[vrow]
+            vrow[pairs[:, 0]] = pairs[:, 1]  # the row each vertex reads (a joined row may be another vertex's)
+            changed = (np.ascontiguousarray(UV[vrow]).view(np.int64)
+                       != np.ascontiguousarray(layout.UV[r0:r0 + nr]).view(np.int64)).any(1)
             if mode == "replace":
                 if not changed.any():
                     info["texcoord"].append(layout.texcoord)

@@ -20,7 +20,7 @@ MAP_KEYS = (b"map_ka", b"map_kd", b"map_ks", b"map_ke", b"map_ns", b"map_d", b"m
             b"disp", b"decal", b"map_pr", b"map_pm", b"map_ps")
 
 
-def read_layout(path, uv_set=0, *, untextured=False):
+def read_layout(path, uv_set=0, *, untextured=False, weld=True):
     """``(V, F, UV, FUV, data)`` of a textured OBJ (``data``: its :class:`~neuraluv.io.obj.ObjData`, lines kept)
     or glTF / GLB (``data``: its :class:`~neuraluv.io.gltf.GltfLayout`); one-line errors for everything else.
 
@@ -32,6 +32,8 @@ def read_layout(path, uv_set=0, *, untextured=False):
     untextured : bool
         glTF: the triangle primitives without that set too, as faces without texture coordinates
         (:func:`~neuraluv.io.gltf.read_gltf_layout`; an OBJ's faces without ``vt`` are always read).
+    weld : bool
+        glTF: rows of vertices split only for their normals joined (:func:`~neuraluv.io.gltf.seamless_rows`).
     """
     from neuraluv.io.gltf import read_gltf_layout
     from neuraluv.io.mesh import check_mesh_arrays, check_mesh_file
@@ -50,7 +52,7 @@ def read_layout(path, uv_set=0, *, untextured=False):
                                 "make a layout")
         return V, F, UV, FUV, data
     try:
-        lay = read_gltf_layout(path, uv_set, untextured=untextured)
+        lay = read_gltf_layout(path, uv_set, untextured=untextured, weld=weld)
     except NeuralUVError:
         raise
     except (ValueError, KeyError, IndexError, TypeError, struct.error) as exc:  # malformed JSON structure: one line
