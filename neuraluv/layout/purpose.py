@@ -56,9 +56,9 @@ Definitions (on the unit-box mesh):
   inside a shell (a problem).
 
 Limits, measured (``data_scripts/purpose_fold_recall.py``): on 114 layouts damaged by
-``neuraluv_paper.damage`` (local folds and vertex noise on eight real assets), 7.9% of the
+``neuraluv_paper.damage`` (local folds and vertex noise on eight real assets), 9.2% of the
 faces the damage reversed are taken for intent: 0–2.5% on six of the eight (Blender's
-mirrored Suzanne among them: 37.5% before the twin layers), 18.2% on tube and 33.9% on Duck,
+mirrored Suzanne among them: 37.5% before the twin layers), 18.2% on tube and 38.1% on Duck,
 where a fold straddles the seam of a stacked mirrored copy that shares no rows with the part it
 copies: its faces join the copy's sheet.
 """
