@@ -287,6 +287,51 @@ def test_a_flat_shaded_glb_is_read_as_one_island_and_its_fold_repaired(tmp_path,
     assert (tmp_path / "same.glb").read_bytes() == good.read_bytes()  # only intent: byte-identical
 
 
+def test_a_texture_sampled_through_khr_texture_transform_is_rebaked_where_it_is_sampled(tmp_path, capsys):
+    # the base colour is sampled at KHR_texture_transform(UV) (scale 0.5, offset, a quarter of the image): a re-bake
+    # at the raw UVs wrote texels the renderer never reads. Judged through the transform, the repaired asset must
+    # look like the damaged one everywhere the repair left alone, and like it on average.
+    import io
+
+    from PIL import Image
+
+    from conftest import grid
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout, write_gltf_uvs
+    from neuraluv.io.gltf import _write_glb, image_bytes, load_gltf
+    from neuraluv.io.gltf_extensions import texture_transform
+    from neuraluv.repair.rebake import appearance_change
+
+    V, F = grid(8, 8)
+    V = np.c_[V[:, 0], V[:, 1], 0.3 * np.sin(V[:, 0] / 2)]
+    UV = V[:, :2] / 10 + 0.1
+    src = _glb(tmp_path, UV, V, F, name="tt.glb")
+    doc = load_gltf(src)
+    ext = {"offset": [0.25, 0.5], "scale": [0.5, 0.5]}
+    doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = {"KHR_texture_transform": ext}
+    doc.json["extensionsUsed"] = sorted(set(doc.json.get("extensionsUsed", [])) | {"KHR_texture_transform"})
+    _write_glb(doc, src)
+    lay = read_gltf_layout(src)
+    bad = lay.UV.copy()
+    bad[40] += [0.15, 0.02]  # an interior vertex pushed over its neighbours
+    write_gltf_uvs(lay, bad, lay.FUV, tmp_path / "dmg.glb")
+    assert main(["repair", str(tmp_path / "dmg.glb"), "-o", str(tmp_path / "fixed.glb"), "--preset", "test",
+                 "--device", "cpu"]) == 0, capsys.readouterr()
+    capsys.readouterr()
+    tf = texture_transform({"extensions": {"KHR_texture_transform": ext}})
+    a, b = read_gltf_layout(tmp_path / "dmg.glb"), read_gltf_layout(tmp_path / "fixed.glb")
+
+    def image(path):
+        d = load_gltf(path)
+        return np.asarray(Image.open(io.BytesIO(image_bytes(d, 0))).convert("RGB"))
+
+    kept = (a.UV[a.FUV] == b.UV[b.FUV]).all(axis=(1, 2))
+    assert 0 < (~kept).sum() < len(F) / 4
+    seen = appearance_change(a.V, a.F[kept], image(tmp_path / "dmg.glb"), tf(a.UV), a.FUV[kept],
+                             image(tmp_path / "fixed.glb"), tf(b.UV), b.FUV[kept])
+    assert seen["mean"] < 0.5, seen  # the faces left alone look as they did, read through the transform
+
+
 def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
     from neuraluv.errors import NeuralUVError
     from neuraluv.io import read_gltf_layout
@@ -303,6 +348,14 @@ def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
     p.write_bytes(trimesh.creation.box().export(file_type="glb"))
     with pytest.raises(NeuralUVError, match="no triangle primitive with TEXCOORD_0"):
         read_gltf_layout(p)
+    from neuraluv.io.gltf import _write_glb, load_gltf
+
+    for ext in ("KHR_draco_mesh_compression", "EXT_meshopt_compression"):  # compressed data: refused by name
+        doc = load_gltf(p)
+        doc.json["extensionsUsed"] = doc.json["extensionsRequired"] = [ext]
+        _write_glb(doc, tmp_path / "packed.glb")
+        with pytest.raises(NeuralUVError, match=f"requires {ext}"):
+            read_gltf_layout(tmp_path / "packed.glb")
 
 
 AUTHORED_TRIES = ["BoxTextured.glb", "CesiumMilkTruck.glb", "bl_cube_shifted_outside.obj", "bl_cylinder_array_stacked.obj",

@@ -37,6 +37,7 @@ import numpy as np
 
 from neuraluv.errors import NeuralUVError
 from neuraluv.io.files import atomic_write
+from neuraluv.io.gltf_extensions import refuse_unreadable
 
 __all__ = ["GltfLayout", "read_gltf_layout", "write_gltf_uvs", "load_gltf", "image_bytes", "replace_images"]
 
@@ -78,6 +79,7 @@ def load_gltf(path):
             pos += 8 + clen
         if doc is None:
             raise NeuralUVError(f"{path.name}: GLB without a JSON chunk")
+        refuse_unreadable(path, doc)
         buffers = []
         for i, b in enumerate(doc.get("buffers", [])):
             if "uri" not in b and i == 0:
@@ -89,6 +91,7 @@ def load_gltf(path):
         doc = json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError):
         raise NeuralUVError(f"{path.name}: neither a GLB nor glTF JSON") from None
+    refuse_unreadable(path, doc)
     return _Doc(path, doc, [_external(path, b) for b in doc.get("buffers", [])], False)
 
 

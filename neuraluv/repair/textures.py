@@ -5,7 +5,10 @@ material maps (``map_Kd``, ``map_Ks``, ``map_Bump``, …, in the ``mtllib`` file
 it), a glTF's base colour, metallic-roughness, normal, occlusion and emissive textures
 of the repaired primitives' materials on that UV set — re-bakes each from the old
 layout to the new one (:func:`~neuraluv.repair.rebake.rebake_image`), writes them, and
-measures the appearance change (:func:`~neuraluv.repair.rebake.appearance_change`).
+measures the appearance change (:func:`~neuraluv.repair.rebake.appearance_change`). A glTF
+texture sampled through ``KHR_texture_transform`` is re-baked where it is sampled (the
+transform applied to both layouts); one image sampled through two transforms is skipped, and
+said so.
 
 Where they go: an OBJ ``OUT.obj`` gets ``OUT.mtl`` (a copy of its material file with
 the map lines pointing at the re-baked ``OUT.<image>.png``; every other line kept) and
@@ -15,6 +18,7 @@ re-baked PNGs inside it, in place of the images they replace.
 from __future__ import annotations
 
 import io
+import json
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +48,14 @@ def _png(arr):
     buf = io.BytesIO()
     Image.fromarray(arr).save(buf, format="PNG")
     return buf.getvalue()
+
+
+class _Sampled:
+    """A repair result seen through a texture transform: the UVs (before and after) a texture is sampled at."""
+
+    def __init__(self, res, tf):
+        self.V, self.F, self.FUV_in, self.FUV, self.changed_faces = res.V, res.F, res.FUV_in, res.FUV, res.changed_faces
+        self.UV_in, self.UV = tf(res.UV_in), tf(res.UV)
 
 
 def _measure(res, img0, img1):
@@ -130,10 +142,11 @@ def _carry_obj(inp, out, data, res):
 
 def _carry_glb(out, data, res, uv_set):
     from neuraluv.io.gltf import load_gltf, replace_images
+    from neuraluv.io.gltf_extensions import texture_transform
 
     doc = load_gltf(out)
     mats = {doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]].get("material") for b in data.blocks}
-    used = {}
+    used = {}  # image -> the KHR_texture_transform (JSON) of every reference to it on this UV set
     for m in mats:
         if m is None:
             continue
@@ -141,13 +154,19 @@ def _carry_glb(out, data, res, uv_set):
         pbr = mat.get("pbrMetallicRoughness", {})
         for ti in (pbr.get("baseColorTexture"), pbr.get("metallicRoughnessTexture"), mat.get("normalTexture"),
                    mat.get("occlusionTexture"), mat.get("emissiveTexture")):
-            if ti and ti.get("texCoord", 0) == uv_set:
+            ext = ((ti or {}).get("extensions") or {}).get("KHR_texture_transform")
+            if ti and (ext or {}).get("texCoord", ti.get("texCoord", 0)) == uv_set:  # the extension's set wins
                 src = doc.json["textures"][ti["index"]].get("source")
                 if src is not None:
-                    used[src] = True
+                    used.setdefault(src, {})[json.dumps(ext, sort_keys=True)] = ti
     report, new = [], {}
     for img_i in sorted(used):
         im = doc.json["images"][img_i]
+        if len(used[img_i]) > 1:  # one image sampled through two transforms: no one re-bake serves both
+            report.append({"image": im.get("name", f"image {img_i}"),
+                           "skipped": "sampled through different KHR_texture_transform transforms"})
+            continue
+        tf = texture_transform(next(iter(used[img_i].values())))  # where the texture is sampled (None: the UVs)
         try:
             from PIL import Image
 
@@ -159,9 +178,10 @@ def _carry_glb(out, data, res, uv_set):
         except Exception as exc:  # noqa: BLE001 - an unreadable image: say so, carry on
             report.append({"image": im.get("name", f"image {img_i}"), "skipped": f"could not read ({type(exc).__name__})"})
             continue
-        img1, info = rebake_image(img0, res.UV_in, res.FUV_in, res.UV, res.FUV, res.changed_faces)
+        view = res if tf is None else _Sampled(res, tf)
+        img1, info = rebake_image(img0, view.UV_in, view.FUV_in, view.UV, view.FUV, view.changed_faces)
         new[img_i] = _png(img1)
-        app = _measure(res, img0, img1)
+        app = _measure(view, img0, img1)
         report.append({"image": im.get("name", f"image {img_i}"), "written": f"{out.name} (image {img_i}, PNG)",
                        "texels_written": info["texels_written"], "appearance": app,
                        "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT})
