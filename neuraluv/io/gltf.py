@@ -197,7 +197,8 @@ def seamless_rows(V, F, UV, FUV):
     ok[ok] = np.isfinite(UV[FUV[ok]]).all(axis=(1, 2))
     T = UV[FUV[ok]]
     ok[ok] = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]) != 0  # a face collapsed in UV (a palette's) joins nothing
-    if not ok.any() or len(np.unique(UV[np.isfinite(UV).all(1)], axis=0)) == np.isfinite(UV).all(1).sum():
+    fin = np.isfinite(UV).all(1)
+    if not ok.any() or len(np.unique(UV[fin], axis=0)) == fin.sum():  # no two rows alike: nothing to join
         return np.arange(p)
     f = np.flatnonzero(ok)
     rows = FUV[f].reshape(-1)
@@ -459,7 +460,7 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
     prims = [doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]] for b in layout.blocks]
     k_add = max(_free_set(p) for p in prims)
 
-    def put(b, prim, acc, k=None):  # the new layout as TEXCOORD_k (k_add), lower sets the primitive lacks filled with it
+    def put(b, prim, acc, k=None):  # the new layout as TEXCOORD_k (k_add); lower sets the primitive lacks: the same
         k = k_add if k is None else k
         gaps = [j for j in range(k) if f"TEXCOORD_{j}" not in prim["attributes"]]
         for j in gaps + [k]:

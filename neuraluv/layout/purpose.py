@@ -440,8 +440,11 @@ def _layer_folds(facts, cls, idx, shell, fold):
     np.maximum.at(hi, inv, c)
     apart = (hi - lo).max(1)[inv] > TWIN_APART
     a2, a3 = np.abs(np.nan_to_num(facts.signed_uv)), facts.area3d
+    taking = np.zeros(len(facts.F), bool)
+    taking[use] = True
     for i in np.unique(facts.label[use[apart]]):
-        faces = use[facts.label[use] == i]
+        faces = facts.island_faces(i)
+        faces = faces[taking[faces]]
         layer, _ = twin_layers(facts.F, facts.FUV, faces)
         for lay in np.unique(layer):
             m = faces[layer == lay]

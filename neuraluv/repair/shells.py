@@ -12,11 +12,11 @@ import scipy.sparse as sp
 
 from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
-from neuraluv.layout.purpose import layout_intent
+from neuraluv.layout.purpose import layout_intent, twin_layers
 from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces
 from neuraluv.repair.region import PairsWith, face_dets_of, intended_overlaps, region_overlaps
 from neuraluv.repair.seams import repair_across_shells
-from neuraluv.repair.twins import layer_sign, twin_layers, twin_layers_hold, twins_follow
+from neuraluv.repair.twins import layer_sign, twin_layers_hold, twins_follow
 from neuraluv.repair.untangle import budget_spent
 
 #: A fold on a seam (rows shared with another shell) tries its own shell within this many rings first; larger regions
@@ -326,7 +326,7 @@ def own_copies(UV, FUV, shell, rows):
 
 
 def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, allowed_cache=None, **kw):
-    """Repair a fold of twin halves in their layers (:func:`~neuraluv.repair.twins.twin_layers`), each in its own
+    """Repair a fold of twin halves in their layers (:func:`~neuraluv.layout.purpose.twin_layers`), each in its own
     orientation.
 
     In each layer the cluster's faces (or their twins) lie in, the faces reversed against the layer (the

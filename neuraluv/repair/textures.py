@@ -17,6 +17,7 @@ re-baked PNGs inside it, in place of the images they replace.
 """
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 from pathlib import Path
@@ -48,14 +49,6 @@ def _png(arr):
     buf = io.BytesIO()
     Image.fromarray(arr).save(buf, format="PNG")
     return buf.getvalue()
-
-
-class _Sampled:
-    """A repair result seen through a texture transform: the UVs (before and after) a texture is sampled at."""
-
-    def __init__(self, res, tf):
-        self.V, self.F, self.FUV_in, self.FUV, self.changed_faces = res.V, res.F, res.FUV_in, res.FUV, res.changed_faces
-        self.UV_in, self.UV = tf(res.UV_in), tf(res.UV)
 
 
 def _measure(res, img0, img1):
@@ -178,7 +171,7 @@ def _carry_glb(out, data, res, uv_set):
         except Exception as exc:  # noqa: BLE001 - an unreadable image: say so, carry on
             report.append({"image": im.get("name", f"image {img_i}"), "skipped": f"could not read ({type(exc).__name__})"})
             continue
-        view = res if tf is None else _Sampled(res, tf)
+        view = res if tf is None else dataclasses.replace(res, UV_in=tf(res.UV_in), UV=tf(res.UV))  # as sampled
         img1, info = rebake_image(img0, view.UV_in, view.FUV_in, view.UV, view.FUV, view.changed_faces)
         new[img_i] = _png(img1)
         app = _measure(view, img0, img1)

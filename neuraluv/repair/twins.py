@@ -1,8 +1,8 @@
-"""Twin layers: the stacked halves of a mirror modifier that share their ``vt`` rows, read off a layout.
+"""Twin layers in a repair: the stacked halves of a mirror modifier that share their ``vt`` rows.
 
 Under the ``texture`` purpose a fold on rows two stacked halves share folds both halves at once;
-:func:`~neuraluv.repair.shells.repair_twin_layers` repairs it in a half's layer (:func:`twin_layers`), and the
-twins follow, mirrored.
+:func:`~neuraluv.repair.shells.repair_twin_layers` repairs it in a half's layer
+(:func:`~neuraluv.layout.purpose.twin_layers`), and the twins follow, mirrored.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from neuraluv.layout.purpose import twin_layers
 from neuraluv.meshfix import face_areas
 from neuraluv.repair.region import face_dets_of
 
-__all__ = ["twin_layers", "layer_sign", "twin_layers_hold", "twins_follow"]  # twin_layers: from layout.purpose
+__all__ = ["layer_sign", "twin_layers_hold", "twins_follow"]
 
 
 def twins_follow(FUV_old, FUV_new, island, mine, twin):
@@ -37,8 +37,9 @@ def layer_sign(Vn, F, UV, FUV, faces):
 
 
 def twin_layers_hold(Vn, F, UV, FUV, island, cluster):
-    """Whether every face of ``cluster`` is oriented like its layer (:func:`twin_layers`): a fold a twin-layer
-    repair already undid (seen from the other half's shell, its faces are the repaired faces' twins)."""
+    """Whether every face of ``cluster`` is oriented like its layer (:func:`~neuraluv.layout.purpose.twin_layers`):
+    a fold a twin-layer repair already undid (seen from the other half's shell, its faces are the repaired faces'
+    twins)."""
     island = np.sort(np.asarray(island, np.int64))
     layer, _ = twin_layers(F, FUV, island)
     at = np.searchsorted(island, cluster)
