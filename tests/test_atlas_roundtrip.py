@@ -169,6 +169,49 @@ def test_an_added_uv_set_has_one_index_on_every_primitive(tmp_path):
     assert v is None or (v["errors"] == 0 and v["warnings"] == 0), v
 
 
+def test_primitives_with_the_same_data_are_written_together(tmp_path):
+    """Two primitives on the same positions, UV set and indices (one mesh drawn with two materials) are read
+    once, and both get what is written: the added set, or the split vertices of a replaced one."""
+    import copy
+
+    import trimesh
+
+    from neuraluv.io import read_gltf_layout, write_gltf_uvs
+    from neuraluv.io.gltf import _accessor, _write_glb, load_gltf
+
+    box = trimesh.creation.box()
+    box.visual = trimesh.visual.TextureVisuals(uv=box.vertices[:, :2] * 0.5 + 0.5)
+    src = tmp_path / "box.glb"
+    src.write_bytes(box.export(file_type="glb"))
+    doc = load_gltf(src)
+    mats = doc.json.setdefault("materials", [{}])
+    mats.append(copy.deepcopy(mats[0]) | {"name": "second"})
+    prim = doc.json["meshes"][0]["primitives"][0]
+    doc.json["meshes"][0]["primitives"].append(copy.deepcopy(prim) | {"material": len(mats) - 1})
+    _write_glb(doc, src)
+    lay = read_gltf_layout(src, 0)
+    assert len(lay.blocks) == 1 and lay.blocks[0]["aliases"] == [(0, 1)] and not lay.skipped
+    UV = lay.V[:, :2] * 0.1 + 0.5
+    add = tmp_path / "add.glb"
+    info = write_gltf_uvs(lay, np.r_[lay.UV, UV], lay.FUV + len(lay.UV), add, mode="add")
+    assert info["texcoord"] == [1, 1]
+    prims = load_gltf(add).json["meshes"][0]["primitives"]
+    assert prims[0]["attributes"]["TEXCOORD_1"] == prims[1]["attributes"]["TEXCOORD_1"]
+    # replaced with every face on rows of its own: the vertices are split, for both primitives alike
+    per_corner = lay.UV[lay.FUV].reshape(-1, 2) * 0.5
+    rep = tmp_path / "rep.glb"
+    info = write_gltf_uvs(lay, np.r_[lay.UV, per_corner], len(lay.UV) + np.arange(lay.F.size).reshape(-1, 3), rep)
+    assert info["primitives_split"] == 2
+    d = load_gltf(rep)
+    p0, p1 = d.json["meshes"][0]["primitives"]
+    assert p0["indices"] == p1["indices"] and p0["attributes"] == p1["attributes"] and p1["material"] == 1
+    corners = _accessor(d, p1["attributes"]["TEXCOORD_0"])[_accessor(d, p1["indices"]).reshape(-1)]
+    assert np.allclose(corners, np.c_[per_corner[:, 0], 1 - per_corner[:, 1]], atol=1e-6)
+    for out in (add, rep):
+        v = _gltf_validate(out)
+        assert v is None or v["errors"] == 0, v
+
+
 @pytest.mark.slow
 def test_glb_atlas_replacing_the_uv_set_rebakes_the_texture(tmp_path, capsys):
     from neuraluv.io.gltf import load_gltf

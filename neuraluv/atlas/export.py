@@ -152,7 +152,7 @@ def _write_output(inp, out, data, V, F, UV, FUV, *, replace_uvs, rebake):
         p0 = len(data.UV)
         mode = "replace" if replace_uvs else "add"
         written = {"format": ".glb", **write_gltf_uvs(data, np.vstack([data.UV, UV]), FUV + p0, out, mode=mode)}
-        written["sets"] = {(b["mesh"], b["primitive"]): k for b, k in zip(data.blocks, written["texcoord"])}
+        written["sets"] = dict(zip([key for b in data.blocks for key in data.primitives(b)], written["texcoord"]))
         if replace_uvs and rebake:
             textures = _rebake(inp, out, data, V, F, data.UV, data.FUV, np.vstack([data.UV, UV]), FUV + p0)
         return written, textures, notes

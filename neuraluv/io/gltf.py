@@ -251,7 +251,9 @@ class GltfLayout:
         ``F`` with the rows of vertices split only for their normals joined (:func:`seamless_rows`: the map's
         topology, as an OBJ's shared ``vt``); -1 on the faces of primitives read without the UV set.
     blocks : list of dict, one per primitive read: ``mesh``, ``primitive``, ``uv_accessor``, ``rows`` (first row,
-        count), ``faces`` (first face, count), ``mode``, ``indices`` (the primitive's triangle rows, local).
+        count), ``faces`` (first face, count), ``mode``, ``indices`` (the primitive's triangle rows, local),
+        ``aliases`` (``(mesh, primitive)`` of the primitives with the same positions, UV set and indices: read
+        once, written with it; see :meth:`primitives`).
     skipped : list of str, primitives left out and why.
     texcoord : int, the UV set read (a dict per primitive, or None for geometry only: see :func:`read_gltf_layout`).
     materials, textures : int, counts in the file.
@@ -267,6 +269,10 @@ class GltfLayout:
     doc: object = field(repr=False, default=None)
     materials: int = 0
     textures: int = 0
+
+    def primitives(self, b):
+        """The ``(mesh, primitive)`` of block ``b`` and of its aliases: every primitive that reads its data."""
+        return [(b["mesh"], b["primitive"]), *b.get("aliases", [])]
 
 
 def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
@@ -319,10 +325,10 @@ def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
                 skipped.append(f"{where}: no {name or 'POSITION'}" + (" (not textured by this UV set)" if name else ""))
                 continue
             key = (attrs["POSITION"], attrs.get(name), prim.get("indices"), mode)
-            if key in done:  # the same data under another primitive: read once
-                skipped.append(f"{where}: the same data as {done[key]}")
+            if key in done:  # the same data under another primitive (another material): read once, written with it
+                blocks[done[key]]["aliases"].append((mi, pi))
                 continue
-            done[key] = where
+            done[key] = len(blocks)
             P = _accessor(doc, attrs["POSITION"]).astype(float)
             T = np.zeros((len(P), 2)) if not name or missing else _accessor(doc, attrs[name]).astype(float)
             if len(T) != len(P):
@@ -338,7 +344,7 @@ def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
             if missing:
                 untextured_faces.append(np.arange(faces, faces + len(tri)))
             blocks.append({"mesh": mi, "primitive": pi, "uv_accessor": attrs.get(name), "rows": (rows, len(P)),
-                           "faces": (faces, len(tri)), "mode": mode, "indices": tri})
+                           "faces": (faces, len(tri)), "mode": mode, "indices": tri, "aliases": []})
             rows += len(P)
             faces += len(tri)
     if not blocks:
@@ -457,7 +463,7 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
         raise NeuralUVError("the new layout must give finite UVs to every face of the one read")
     same = (np.ascontiguousarray(UV[:p0]).view(np.int64) == np.ascontiguousarray(layout.UV).view(np.int64)).all(1)
     info = {"mode": mode, "texcoord": [], "rows_changed": int((~same).sum()), "primitives_split": 0, "filled": []}
-    prims = [doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]] for b in layout.blocks]
+    prims = [doc.json["meshes"][mi]["primitives"][pi] for b in layout.blocks for mi, pi in layout.primitives(b)]
     k_add = max(_free_set(p) for p in prims)
 
     def put(b, prim, acc, k=None):  # the new layout as TEXCOORD_k (k_add); lower sets the primitive lacks: the same
@@ -469,26 +475,39 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
             info["filled"].append((b["mesh"], b["primitive"], gaps))
         info["texcoord"].append(k)
 
-    for b, prim in zip(layout.blocks, prims):
-        r0, nr = b["rows"]
-        f0, nf = b["faces"]
-        own = FUV[f0:f0 + nf]
-        local = b["indices"]  # (nf,3) vertex of each corner
-        # the row each vertex needs: one per vertex unless the layout split it
-        pairs = np.unique(np.c_[local.reshape(-1), own.reshape(-1)], axis=0)
-        split = len(pairs) != len(np.unique(pairs[:, 0]))
-        if not split:
-            vrow = np.arange(nr) + r0
-            vrow[pairs[:, 0]] = pairs[:, 1]  # the row each vertex reads (a joined row may be another vertex's)
-            changed = (np.ascontiguousarray(UV[vrow]).view(np.int64)
-                       != np.ascontiguousarray(layout.UV[r0:r0 + nr]).view(np.int64)).any(1)
-            if mode == "replace":
-                if not changed.any():
-                    info["texcoord"].append(layout.texcoord)
-                    continue
-                acc_i = b["uv_accessor"]
-                acc = doc.json["accessors"][acc_i] if acc_i is not None else {}
-                if acc.get("componentType") == 5126 and "bufferView" in acc and "sparse" not in acc:
+    for b in layout.blocks:
+        shared = {}  # the accessors made for this block, given to every primitive that reads its data
+        for mi, pi in layout.primitives(b):
+            _write_block(doc, b, doc.json["meshes"][mi]["primitives"][pi], layout, UV, FUV, mode, put, info, shared)
+    if len(doc.buffers[0]) != size0:  # data appended (the chunk read may hold padding beyond byteLength)
+        doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+    _write_glb(doc, dst, keep_json=doc.json == original)
+    return info
+
+
+def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
+    """Write the new layout of block ``b`` to primitive ``prim`` (the block's or an alias's): in place, as a new
+    set, or on split vertices; accessors made once per block are kept in ``shared``."""
+    r0, nr = b["rows"]
+    f0, nf = b["faces"]
+    own = FUV[f0:f0 + nf]
+    local = b["indices"]  # (nf,3) vertex of each corner
+    # the row each vertex needs: one per vertex unless the layout split it
+    pairs = np.unique(np.c_[local.reshape(-1), own.reshape(-1)], axis=0)
+    split = len(pairs) != len(np.unique(pairs[:, 0]))
+    if not split:
+        vrow = np.arange(nr) + r0
+        vrow[pairs[:, 0]] = pairs[:, 1]  # the row each vertex reads (a joined row may be another vertex's)
+        changed = (np.ascontiguousarray(UV[vrow]).view(np.int64)
+                   != np.ascontiguousarray(layout.UV[r0:r0 + nr]).view(np.int64)).any(1)
+        if mode == "replace":
+            if not changed.any():
+                info["texcoord"].append(layout.texcoord)
+                return
+            acc_i = b["uv_accessor"]
+            acc = doc.json["accessors"][acc_i] if acc_i is not None else {}
+            if acc.get("componentType") == 5126 and "bufferView" in acc and "sparse" not in acc:
+                if "in place" not in shared:  # the accessor is the block's: written once for all its primitives
                     bv = doc.json["bufferViews"][acc["bufferView"]]
                     start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
                     stride = bv.get("byteStride") or 8
@@ -499,35 +518,43 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
                     if "min" in acc or "max" in acc:  # declared bounds must stay true (the validator checks them)
                         vals = _accessor(doc, acc_i)
                         acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
-                else:  # a normalized integer (or odd) accessor, or none (read untextured): a float one in its place
-                    put(b, prim, _new_accessor(doc, _float_uv(UV[vrow])), layout.texcoord)
-                    continue
+                    shared["in place"] = True
                 info["texcoord"].append(layout.texcoord)
-            else:
-                put(b, prim, _new_accessor(doc, _float_uv(UV[vrow])))
+                return
+            # a normalized integer (or odd) accessor, or none (read untextured): a float one in its place
+            if "uv" not in shared:
+                shared["uv"] = _new_accessor(doc, _float_uv(UV[vrow]))
+            put(b, prim, shared["uv"], layout.texcoord)
+            return
+        if "uv" not in shared:
+            shared["uv"] = _new_accessor(doc, _float_uv(UV[vrow]))
+        put(b, prim, shared["uv"])
+        return
+    # split vertices: gather every vertex attribute (and morph target) onto the new vertices
+    info["primitives_split"] += 1
+    corner_v = local.reshape(-1)
+    corner_r = own.reshape(-1)
+    uniq, inv = np.unique(np.c_[corner_v, corner_r], axis=0, return_inverse=True)
+    src_v = uniq[:, 0]
+    gathered = shared.setdefault("gathered", {})  # attributes the block's primitives share: gathered once
+    for name, ai in list(prim["attributes"].items()):
+        if mode == "replace" and name == f"TEXCOORD_{layout.texcoord}":
             continue
-        # split vertices: gather every vertex attribute (and morph target) onto the new vertices
-        info["primitives_split"] += 1
-        corner_v = local.reshape(-1)
-        corner_r = own.reshape(-1)
-        uniq, inv = np.unique(np.c_[corner_v, corner_r], axis=0, return_inverse=True)
-        src_v = uniq[:, 0]
-        for name, ai in list(prim["attributes"].items()):
-            if mode == "replace" and name == f"TEXCOORD_{layout.texcoord}":
-                continue
-            prim["attributes"][name] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
-        for t in prim.get("targets", []):
-            for name, ai in list(t.items()):
-                t[name] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
-        acc = _new_accessor(doc, _float_uv(UV[uniq[:, 1]]))
-        put(b, prim, acc, layout.texcoord if mode == "replace" else None)
+        if ai not in gathered:
+            gathered[ai] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+        prim["attributes"][name] = gathered[ai]
+    for t in prim.get("targets", []):
+        for name, ai in list(t.items()):
+            if ai not in gathered:
+                gathered[ai] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+            t[name] = gathered[ai]
+    if "split uv" not in shared:
+        shared["split uv"] = _new_accessor(doc, _float_uv(UV[uniq[:, 1]]))
         tri = inv.reshape(-1).astype(np.uint32 if len(uniq) > 65535 else np.uint16)
-        prim["indices"] = _new_accessor(doc, tri.reshape(-1, 1), target=34963)
-        prim["mode"] = 4
-    if len(doc.buffers[0]) != size0:  # data appended (the chunk read may hold padding beyond byteLength)
-        doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
-    _write_glb(doc, dst, keep_json=doc.json == original)
-    return info
+        shared["indices"] = _new_accessor(doc, tri.reshape(-1, 1), target=34963)
+    put(b, prim, shared["split uv"], layout.texcoord if mode == "replace" else None)
+    prim["indices"] = shared["indices"]
+    prim["mode"] = 4
 
 
 def _free_set(prim):

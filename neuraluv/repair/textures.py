@@ -138,7 +138,8 @@ def _carry_glb(out, data, res, uv_set):
     from neuraluv.io.gltf_extensions import texture_transform
 
     doc = load_gltf(out)
-    mats = {doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]].get("material") for b in data.blocks}
+    mats = {doc.json["meshes"][mi]["primitives"][pi].get("material") for b in data.blocks
+            for mi, pi in data.primitives(b)}  # with the primitives that read a block's data under another material
     used = {}  # image -> the KHR_texture_transform (JSON) of every reference to it on this UV set
     for m in mats:
         if m is None:
