@@ -177,7 +177,8 @@ def test_primitives_with_the_same_data_are_written_together(tmp_path):
     import trimesh
 
     from neuraluv.io import read_gltf_layout, write_gltf_uvs
-    from neuraluv.io.gltf import _accessor, _write_glb, load_gltf
+    from neuraluv.io.gltf import _accessor, load_gltf
+    from neuraluv.io.gltf_write import write_glb
 
     box = trimesh.creation.box()
     box.visual = trimesh.visual.TextureVisuals(uv=box.vertices[:, :2] * 0.5 + 0.5)
@@ -188,7 +189,7 @@ def test_primitives_with_the_same_data_are_written_together(tmp_path):
     mats.append(copy.deepcopy(mats[0]) | {"name": "second"})
     prim = doc.json["meshes"][0]["primitives"][0]
     doc.json["meshes"][0]["primitives"].append(copy.deepcopy(prim) | {"material": len(mats) - 1})
-    _write_glb(doc, src)
+    write_glb(doc, src)
     lay = read_gltf_layout(src, 0)
     assert len(lay.blocks) == 1 and lay.blocks[0]["aliases"] == [(0, 1)] and not lay.skipped
     UV = lay.V[:, :2] * 0.1 + 0.5
@@ -210,6 +211,25 @@ def test_primitives_with_the_same_data_are_written_together(tmp_path):
     for out in (add, rep):
         v = _gltf_validate(out)
         assert v is None or v["errors"] == 0, v
+
+
+def test_a_copied_quantized_attribute_keeps_its_elements_4_byte_aligned(tmp_path):
+    """Split vertices copy every attribute: a quantized one (3 normalized bytes a normal, KHR_mesh_quantization)
+    gets a byte stride of 4, as glTF wants of vertex attributes (the validator's MESH_PRIMITIVE_ACCESSOR_UNALIGNED)."""
+    import trimesh
+
+    from neuraluv.io.gltf import _accessor, load_gltf
+    from neuraluv.io.gltf_write import _new_accessor
+
+    src = tmp_path / "box.glb"
+    src.write_bytes(trimesh.creation.box().export(file_type="glb"))
+    doc = load_gltf(src)
+    n = np.array([[127, 0, 0], [0, 127, 0], [0, 0, 129]], np.uint8)
+    doc.json["accessors"].append({"componentType": 5121, "normalized": True, "type": "VEC3", "count": 3})
+    acc = _new_accessor(doc, n, like=len(doc.json["accessors"]) - 1)
+    view = doc.json["bufferViews"][doc.json["accessors"][acc]["bufferView"]]
+    assert view["byteStride"] == 4 and view["byteOffset"] % 4 == 0 and view["byteLength"] == 12
+    assert np.array_equal(_accessor(doc, acc, raw=True), n)
 
 
 @pytest.mark.slow

@@ -298,8 +298,9 @@ def test_a_texture_sampled_through_khr_texture_transform_is_rebaked_where_it_is_
     from conftest import grid
     from neuraluv.cli import main
     from neuraluv.io import read_gltf_layout, write_gltf_uvs
-    from neuraluv.io.gltf import _write_glb, image_bytes, load_gltf
+    from neuraluv.io.gltf import image_bytes, load_gltf
     from neuraluv.io.gltf_extensions import texture_transform
+    from neuraluv.io.gltf_write import write_glb
     from neuraluv.repair.rebake import appearance_change
 
     V, F = grid(8, 8)
@@ -310,16 +311,18 @@ def test_a_texture_sampled_through_khr_texture_transform_is_rebaked_where_it_is_
     ext = {"offset": [0.25, 0.5], "scale": [0.5, 0.5]}
     doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = {"KHR_texture_transform": ext}
     doc.json["extensionsUsed"] = sorted(set(doc.json.get("extensionsUsed", [])) | {"KHR_texture_transform"})
-    _write_glb(doc, src)
-    lay = read_gltf_layout(src)
+    write_glb(doc, src)
+    lay = read_gltf_layout(src)  # read where the texture samples it, written back where it was stored
+    tf = texture_transform({"extensions": {"KHR_texture_transform": ext}})
+    assert lay.blocks[0]["transform"] == ext and np.allclose(lay.UV[lay.FUV], tf(UV)[F])
     bad = lay.UV.copy()
     bad[40] += [0.15, 0.02]  # an interior vertex pushed over its neighbours
     write_gltf_uvs(lay, bad, lay.FUV, tmp_path / "dmg.glb")
     assert main(["repair", str(tmp_path / "dmg.glb"), "-o", str(tmp_path / "fixed.glb"), "--preset", "test",
                  "--device", "cpu"]) == 0, capsys.readouterr()
     capsys.readouterr()
-    tf = texture_transform({"extensions": {"KHR_texture_transform": ext}})
     a, b = read_gltf_layout(tmp_path / "dmg.glb"), read_gltf_layout(tmp_path / "fixed.glb")
+    assert np.allclose(a.UV, bad)
 
     def image(path):
         d = load_gltf(path)
@@ -327,9 +330,37 @@ def test_a_texture_sampled_through_khr_texture_transform_is_rebaked_where_it_is_
 
     kept = (a.UV[a.FUV] == b.UV[b.FUV]).all(axis=(1, 2))
     assert 0 < (~kept).sum() < len(F) / 4
-    seen = appearance_change(a.V, a.F[kept], image(tmp_path / "dmg.glb"), tf(a.UV), a.FUV[kept],
-                             image(tmp_path / "fixed.glb"), tf(b.UV), b.FUV[kept])
+    seen = appearance_change(a.V, a.F[kept], image(tmp_path / "dmg.glb"), a.UV, a.FUV[kept],
+                             image(tmp_path / "fixed.glb"), b.UV, b.FUV[kept])
     assert seen["mean"] < 0.5, seen  # the faces left alone look as they did, read through the transform
+
+
+def test_a_layout_stored_small_and_scaled_by_its_texture_transform_is_judged_as_sampled(tmp_path, capsys):
+    # gltfpack stores quantized UVs in a corner of [0,1]² and scales them back with KHR_texture_transform: read
+    # as stored, a fold 16× smaller in each direction fell below the sub-texel tolerance and was left alone
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.io.gltf import load_gltf
+    from neuraluv.io.gltf_write import write_glb
+
+    name, V, F, UV, bad = fold_cases()[0]
+    plain = _glb(tmp_path, bad, V, F, name="plain.glb")
+    small = _glb(tmp_path, bad / 16, V, F, name="small.glb")
+    doc = load_gltf(small)
+    doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = {
+        "KHR_texture_transform": {"scale": [16, 16], "offset": [0, -15]}}  # v: glTF's axis points down
+    doc.json["extensionsUsed"] = ["KHR_texture_transform"]
+    write_glb(doc, small)
+    assert np.allclose(read_gltf_layout(small).UV, read_gltf_layout(plain).UV)
+
+    def problems(path):
+        assert main(["check", "--uv", str(path), "--json"]) == 0
+        return [(p["kind"], p["faces"]) for p in json.loads(capsys.readouterr().out)["problems"]]
+
+    assert problems(small) == problems(plain) != []
+    assert main(["repair", str(small), "-o", str(tmp_path / "fixed.glb"), "--preset", "test", "--device", "cpu"]) == 0
+    capsys.readouterr()
+    assert problems(tmp_path / "fixed.glb") == []
 
 
 def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
@@ -348,12 +379,13 @@ def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
     p.write_bytes(trimesh.creation.box().export(file_type="glb"))
     with pytest.raises(NeuralUVError, match="no triangle primitive with TEXCOORD_0"):
         read_gltf_layout(p)
-    from neuraluv.io.gltf import _write_glb, load_gltf
+    from neuraluv.io.gltf import load_gltf
+    from neuraluv.io.gltf_write import write_glb
 
     for ext in ("KHR_draco_mesh_compression", "EXT_meshopt_compression"):  # compressed data: refused by name
         doc = load_gltf(p)
         doc.json["extensionsUsed"] = doc.json["extensionsRequired"] = [ext]
-        _write_glb(doc, tmp_path / "packed.glb")
+        write_glb(doc, tmp_path / "packed.glb")
         with pytest.raises(NeuralUVError, match=f"requires {ext}"):
             read_gltf_layout(tmp_path / "packed.glb")
 
@@ -434,7 +466,8 @@ def test_repair_of_a_textured_obj_writes_its_own_material_and_rebaked_image(tmp_
 def test_hostile_gltf_layouts_get_one_line_or_a_result(tmp_path, capsys):
     from neuraluv.cli import main
     from neuraluv.io import read_gltf_layout
-    from neuraluv.io.gltf import _write_glb, load_gltf
+    from neuraluv.io.gltf import load_gltf
+    from neuraluv.io.gltf_write import write_glb
 
     V, F, UV, FUV, _ = intent_layouts()["mirrored island"]
     base = _glb(tmp_path, UV, V, F, name="base.glb")
@@ -443,7 +476,7 @@ def test_hostile_gltf_layouts_get_one_line_or_a_result(tmp_path, capsys):
         d = load_gltf(base)
         change(d.json)
         p = tmp_path / f"{name}.glb"
-        _write_glb(d, p)
+        write_glb(d, p)
         return p
 
     prim = lambda j: j["meshes"][0]["primitives"][0]  # noqa: E731

@@ -134,25 +134,27 @@ def _carry_obj(inp, out, data, res):
 
 
 def _carry_glb(out, data, res, uv_set):
-    from neuraluv.io.gltf import load_gltf, replace_images
-    from neuraluv.io.gltf_extensions import texture_transform
+    from neuraluv.io.gltf import load_gltf
+    from neuraluv.io.gltf_extensions import texture_refs, texture_transform
+    from neuraluv.io.gltf_write import replace_images
 
     doc = load_gltf(out)
-    mats = {doc.json["meshes"][mi]["primitives"][pi].get("material") for b in data.blocks
-            for mi, pi in data.primitives(b)}  # with the primitives that read a block's data under another material
+    # materials whose primitives were read through their textures' shared KHR_texture_transform (the layout
+    # is then where those textures sample it already) and the others (each image transformed on its own)
+    sampled, mats = set(), set()
+    for b in data.blocks:
+        for mi, pi in data.primitives(b):
+            m = doc.json["meshes"][mi]["primitives"][pi].get("material")
+            mats.add(m)
+            if b.get("transform"):
+                sampled.add(m)
     used = {}  # image -> the KHR_texture_transform (JSON) of every reference to it on this UV set
     for m in mats:
-        if m is None:
-            continue
-        mat = doc.json["materials"][m]
-        pbr = mat.get("pbrMetallicRoughness", {})
-        for ti in (pbr.get("baseColorTexture"), pbr.get("metallicRoughnessTexture"), mat.get("normalTexture"),
-                   mat.get("occlusionTexture"), mat.get("emissiveTexture")):
-            ext = ((ti or {}).get("extensions") or {}).get("KHR_texture_transform")
-            if ti and (ext or {}).get("texCoord", ti.get("texCoord", 0)) == uv_set:  # the extension's set wins
-                src = doc.json["textures"][ti["index"]].get("source")
-                if src is not None:
-                    used.setdefault(src, {})[json.dumps(ext, sort_keys=True)] = ti
+        for ti in texture_refs(doc.json, m, uv_set):
+            src = doc.json["textures"][ti["index"]].get("source")
+            if src is not None:
+                ext = None if m in sampled else (ti.get("extensions") or {}).get("KHR_texture_transform")
+                used.setdefault(src, {})[json.dumps(ext, sort_keys=True)] = None if m in sampled else ti
     report, new = [], {}
     for img_i in sorted(used):
         im = doc.json["images"][img_i]

@@ -98,7 +98,8 @@ def _write_damaged(src, dst, data, UV):
         fin = np.where(np.isfinite(UV), UV, np.nan)
         write_gltf_uvs(data, np.where(np.isfinite(fin), fin, 0.0), data.FUV, dst)
         if not np.isfinite(UV).all():  # a NaN in a float accessor: write the bits directly
-            from neuraluv.io.gltf import load_gltf, _write_glb
+            from neuraluv.io.gltf import load_gltf
+            from neuraluv.io.gltf_write import write_glb
 
             doc = load_gltf(dst)
             for b in data.blocks:  # each primitive's own UV accessor holds its rows
@@ -110,7 +111,7 @@ def _write_damaged(src, dst, data, UV):
                 r0, nr = b["rows"]
                 for r in np.flatnonzero(~np.isfinite(UV[r0:r0 + nr]).all(1)):
                     doc.buffers[0][start + stride * r:start + stride * r + 8] = np.full(2, np.nan, "<f4").tobytes()
-            _write_glb(doc, dst, keep_json=True)
+            write_glb(doc, dst, keep_json=True)
 
 
 def _kept_outside(path, out, untouched):

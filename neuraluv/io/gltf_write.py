@@ -1,0 +1,261 @@
+"""Write a GLB copy of a glTF layout's file that differs only in its UV set (or in an added one).
+
+:func:`write_gltf_uvs` writes the binary glTF (GLB) back: every byte of the
+input — nodes, transforms, normals, materials, images, skins, other UV sets,
+extensions — is kept. Under ``mode="replace"`` only the changed rows of the
+UV accessors are overwritten in place (float accessors; a normalized integer
+accessor is replaced by a float one), in the set's stored space (a
+``KHR_texture_transform`` the layout was read through is undone). Under
+``mode="add"`` every primitive gets the new layout as one UV set ``TEXCOORD_k``
+(the first ``k`` unused on all of them), leaving the others alone; a primitive
+with fewer sets has its missing lower ones filled with the same accessor (glTF
+set indices run on from 0). When the new layout splits a vertex (one vertex,
+two UVs), the primitive's vertex attributes are gathered onto the split
+vertices in new accessors (the values are copied, not changed). Primitives
+that read the same data (:meth:`~neuraluv.io.gltf.GltfLayout.primitives`) are
+written together.
+
+Nothing here changes a file's meaning beyond the UVs: it is the GLB
+counterpart of :func:`~neuraluv.io.obj.patch_obj`.
+"""
+from __future__ import annotations
+
+import json
+import struct
+
+import numpy as np
+
+from neuraluv.errors import NeuralUVError
+from neuraluv.io.files import atomic_write
+from neuraluv.io.gltf import _BIN, _DTYPE, _GLB_MAGIC, _JSON, _accessor, _Doc, load_gltf
+from neuraluv.io.gltf_extensions import transform_map
+
+__all__ = ["write_gltf_uvs", "write_glb", "replace_images"]
+
+
+def _append(doc, data, *, target=None, stride=None):
+    """Append bytes to buffer 0 (4-byte aligned) as a new bufferView; its index."""
+    buf = doc.buffers[0]
+    pad = (-len(buf)) % 4
+    buf.extend(b"\0" * pad)
+    view = {"buffer": 0, "byteOffset": len(buf), "byteLength": len(data)}
+    if stride:
+        view["byteStride"] = stride
+    if target:
+        view["target"] = target
+    buf.extend(data)
+    doc.json.setdefault("bufferViews", []).append(view)
+    return len(doc.json["bufferViews"]) - 1
+
+
+def _new_accessor(doc, arr, like=None, *, target=34962):
+    """A new accessor holding ``arr`` (n,w): float32, the component type and flags of accessor ``like``, or
+    (for indices, ``target=34963``) the unsigned integer type of ``arr``."""
+    arr = np.asarray(arr)
+    if target == 34963:
+        comp = {np.dtype(np.uint8): 5121, np.dtype(np.uint16): 5123}.get(arr.dtype, 5125)
+        dt, norm, typ = np.dtype(_DTYPE[comp]).newbyteorder("<"), False, "SCALAR"
+    elif like is not None:
+        a0 = doc.json["accessors"][like]
+        dt, comp, norm = np.dtype(_DTYPE[a0["componentType"]]).newbyteorder("<"), a0["componentType"], \
+            a0.get("normalized", False)
+        typ = a0["type"]
+    else:
+        dt, comp, norm = np.dtype("<f4"), 5126, False
+        typ = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}[arr.shape[1]]
+    data = np.ascontiguousarray(arr.astype(dt))
+    raw, elem, stride = data.tobytes(), dt.itemsize * (data.shape[1] if data.ndim == 2 else 1), None
+    if target == 34962 and elem % 4:  # a vertex attribute's elements start on 4-byte boundaries (quantized ones)
+        stride = elem + (-elem) % 4
+        padded = np.zeros((len(data), stride), np.uint8)
+        padded[:, :elem] = np.frombuffer(raw, np.uint8).reshape(len(data), elem)
+        raw = padded.tobytes()
+    view = _append(doc, raw, target=target, stride=stride)
+    acc = {"bufferView": view, "componentType": comp, "count": int(len(arr)), "type": typ}
+    if norm:
+        acc["normalized"] = True
+    if like is not None and ("min" in doc.json["accessors"][like] or "max" in doc.json["accessors"][like]) and len(arr):
+        acc["min"] = data.min(0).tolist()
+        acc["max"] = data.max(0).tolist()
+    doc.json["accessors"].append(acc)
+    return len(doc.json["accessors"]) - 1
+
+
+def _float_uv(uv):
+    """OBJ-convention UVs to glTF float32 rows (``v`` flipped back)."""
+    return np.c_[uv[:, 0], 1.0 - uv[:, 1]].astype("<f4")
+
+
+def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
+    """Write a GLB copy of ``layout``'s file with a new layout, changing nothing else.
+
+    Parameters
+    ----------
+    layout : GltfLayout
+        As read (its file's bytes are the base).
+    UV : (p,2) float array
+        The layout's rows first (rows equal bit for bit to ``layout.UV`` are not written), then new rows.
+    FUV : (m,3) int array
+        Per-triangle rows, one row of faces per face of ``layout.F``.
+    dst : path of the ``.glb`` to write (atomically).
+    mode : {"replace", "add"}
+        ``replace``: the UV set that was read gets the new values. ``add``: a new UV set
+        ``TEXCOORD_k``, one ``k`` for every primitive written (the first set free on all of them, so that a
+        baker reading one set index finds the whole layout); the sets already there stay as they are. A
+        primitive with fewer sets gets its missing lower sets as the same accessor (glTF wants set indices
+        continuous from 0), listed in ``filled``.
+
+    Returns
+    -------
+    dict: ``mode``, ``texcoord`` (the set written, per primitive), ``rows_changed``, ``primitives_split``
+    (primitives whose vertices had to be split, their attributes copied to new accessors), ``filled``
+    (``(mesh, primitive, [set, ...])`` for each primitive whose lower sets were filled with the new layout).
+    """
+    import copy
+
+    if mode == "replace" and not isinstance(layout.texcoord, int):
+        raise NeuralUVError("replacing a UV set needs a layout read with one set index (add a set instead)")
+    doc = layout.doc
+    doc = _Doc(doc.path, copy.deepcopy(doc.json), [bytearray(b) for b in doc.buffers], doc.glb,
+               doc.json_chunk)
+    original = copy.deepcopy(doc.json)
+    size0 = len(doc.buffers[0])
+    if not doc.glb or len(doc.buffers) > 1 or any("uri" in b for b in doc.json.get("buffers", [])):
+        raise NeuralUVError("writing back needs a GLB with its one buffer inside (external or several buffers: "
+                            "convert it to GLB first)")
+    if not doc.buffers:
+        doc.buffers.append(bytearray())
+        doc.json["buffers"] = [{"byteLength": 0}]
+    UV = np.asarray(UV, float)
+    FUV = np.asarray(FUV, np.int64)
+    p0 = len(layout.UV)
+    if FUV.shape != layout.F.shape or len(UV) < p0 or not np.isfinite(UV[np.unique(FUV)]).all():
+        raise NeuralUVError("the new layout must give finite UVs to every face of the one read")
+    same = (np.ascontiguousarray(UV[:p0]).view(np.int64) == np.ascontiguousarray(layout.UV).view(np.int64)).all(1)
+    info = {"mode": mode, "texcoord": [], "rows_changed": int((~same).sum()), "primitives_split": 0, "filled": []}
+    prims = [doc.json["meshes"][mi]["primitives"][pi] for b in layout.blocks for mi, pi in layout.primitives(b)]
+    k_add = max(_free_set(p) for p in prims)
+
+    def put(b, prim, acc, k=None):  # the new layout as TEXCOORD_k (k_add); lower sets the primitive lacks: the same
+        k = k_add if k is None else k
+        gaps = [j for j in range(k) if f"TEXCOORD_{j}" not in prim["attributes"]]
+        for j in gaps + [k]:
+            prim["attributes"][f"TEXCOORD_{j}"] = acc
+        if gaps:
+            info["filled"].append((b["mesh"], b["primitive"], gaps))
+        info["texcoord"].append(k)
+
+    for b in layout.blocks:
+        shared = {}  # the accessors made for this block, given to every primitive that reads its data
+        for mi, pi in layout.primitives(b):
+            _write_block(doc, b, doc.json["meshes"][mi]["primitives"][pi], layout, UV, FUV, mode, put, info, shared)
+    if len(doc.buffers[0]) != size0:  # data appended (the chunk read may hold padding beyond byteLength)
+        doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+    write_glb(doc, dst, keep_json=doc.json == original)
+    return info
+
+
+def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
+    """Write the new layout of block ``b`` to primitive ``prim`` (the block's or an alias's): in place, as a new
+    set, or on split vertices; accessors made once per block are kept in ``shared``."""
+    r0, nr = b["rows"]
+    f0, nf = b["faces"]
+    own = FUV[f0:f0 + nf]
+    stored = transform_map(b.get("transform") if mode == "replace" else None, inverse=True)  # the set's own space
+    local = b["indices"]  # (nf,3) vertex of each corner
+    # the row each vertex needs: one per vertex unless the layout split it
+    pairs = np.unique(np.c_[local.reshape(-1), own.reshape(-1)], axis=0)
+    split = len(pairs) != len(np.unique(pairs[:, 0]))
+    if not split:
+        vrow = np.arange(nr) + r0
+        vrow[pairs[:, 0]] = pairs[:, 1]  # the row each vertex reads (a joined row may be another vertex's)
+        changed = (np.ascontiguousarray(UV[vrow]).view(np.int64)
+                   != np.ascontiguousarray(layout.UV[r0:r0 + nr]).view(np.int64)).any(1)
+        if mode == "replace":
+            if not changed.any():
+                info["texcoord"].append(layout.texcoord)
+                return
+            acc_i = b["uv_accessor"]
+            acc = doc.json["accessors"][acc_i] if acc_i is not None else {}
+            if acc.get("componentType") == 5126 and "bufferView" in acc and "sparse" not in acc:
+                if "in place" not in shared:  # the accessor is the block's: written once for all its primitives
+                    bv = doc.json["bufferViews"][acc["bufferView"]]
+                    start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
+                    stride = bv.get("byteStride") or 8
+                    new = _float_uv(stored(UV[vrow[changed]]))
+                    buf = doc.buffers[bv["buffer"]]
+                    for v, val in zip(np.flatnonzero(changed), new):
+                        buf[start + stride * v:start + stride * v + 8] = val.tobytes()
+                    if "min" in acc or "max" in acc:  # declared bounds must stay true (the validator checks them)
+                        vals = _accessor(doc, acc_i)
+                        acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
+                    shared["in place"] = True
+                info["texcoord"].append(layout.texcoord)
+                return
+            # a normalized integer (or odd) accessor, or none (read untextured): a float one in its place
+            if "uv" not in shared:
+                shared["uv"] = _new_accessor(doc, _float_uv(stored(UV[vrow])))
+            put(b, prim, shared["uv"], layout.texcoord)
+            return
+        if "uv" not in shared:
+            shared["uv"] = _new_accessor(doc, _float_uv(UV[vrow]))
+        put(b, prim, shared["uv"])
+        return
+    # split vertices: gather every vertex attribute (and morph target) onto the new vertices
+    info["primitives_split"] += 1
+    corner_v = local.reshape(-1)
+    corner_r = own.reshape(-1)
+    uniq, inv = np.unique(np.c_[corner_v, corner_r], axis=0, return_inverse=True)
+    src_v = uniq[:, 0]
+    gathered = shared.setdefault("gathered", {})  # attributes the block's primitives share: gathered once
+    for name, ai in list(prim["attributes"].items()):
+        if mode == "replace" and name == f"TEXCOORD_{layout.texcoord}":
+            continue
+        if ai not in gathered:
+            gathered[ai] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+        prim["attributes"][name] = gathered[ai]
+    for t in prim.get("targets", []):
+        for name, ai in list(t.items()):
+            if ai not in gathered:
+                gathered[ai] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+            t[name] = gathered[ai]
+    if "split uv" not in shared:
+        shared["split uv"] = _new_accessor(doc, _float_uv(stored(UV[uniq[:, 1]])))
+        tri = inv.reshape(-1).astype(np.uint32 if len(uniq) > 65535 else np.uint16)
+        shared["indices"] = _new_accessor(doc, tri.reshape(-1, 1), target=34963)
+    put(b, prim, shared["split uv"], layout.texcoord if mode == "replace" else None)
+    prim["indices"] = shared["indices"]
+    prim["mode"] = 4
+
+
+def _free_set(prim):
+    k = 0
+    while f"TEXCOORD_{k}" in prim["attributes"]:
+        k += 1
+    return k
+
+
+def write_glb(doc, dst, keep_json=False):
+    body = doc.json_chunk if keep_json and doc.json_chunk else json.dumps(doc.json, separators=(",", ":")).encode()
+    body += b" " * ((-len(body)) % 4)
+    binary = bytes(doc.buffers[0]) + b"\0" * ((-len(doc.buffers[0])) % 4)
+    chunks = struct.pack("<II", len(body), _JSON) + body
+    if doc.json.get("buffers"):
+        chunks += struct.pack("<II", len(binary), _BIN) + binary
+    with atomic_write(dst, "wb") as fh:
+        fh.write(struct.pack("<III", _GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
+
+
+def replace_images(src, dst, images):
+    """Write a GLB copy of ``src`` whose images ``{index: PNG bytes}`` are replaced (appended to the binary
+    chunk; the old data stays, unused); every other byte of the document is kept."""
+    doc = load_gltf(src)
+    if not doc.glb or len(doc.buffers) != 1:
+        raise NeuralUVError("replacing images needs a GLB with its one buffer inside")
+    for i, data in images.items():
+        im = doc.json["images"][i]
+        im.pop("uri", None)
+        im["bufferView"] = _append(doc, data)
+        im["mimeType"] = "image/png"
+    doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+    write_glb(doc, dst)
