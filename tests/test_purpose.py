@@ -115,6 +115,57 @@ def test_check_repair_and_read_back_agree_on_the_same_layout():
                 validate_facts(f, purpose=purpose, check_padding=False)["valid"]
 
 
+def test_a_face_collapsed_to_a_line_with_det_j_left_positive_by_rounding_is_repaired_under_both_purposes():
+    # a quantized layout (gltfpack's 12-bit UVs) puts a corner on the line of the other two: det J 1e-16 > 0 by
+    # rounding. Check and the read-back call the face UV-degenerate; the repair took det J > 0 for "mended"
+    # and left it, so its own read-back refused the output
+    from conftest import grid
+    from neuraluv.repair import repair_layout
+
+    V, F = grid(6, 6)
+    UV = V[:, :2].copy()
+    # the bottom row (3, 0) moved onto the line from (2, 0) to (3, 1), a hair to its positive side: the face
+    # (2,0)-(3,0)-(3,1) collapses, its neighbours stay positive
+    UV[3] = [2.5, 0.5 - 1e-14]
+    UV /= 6
+    f = layout_facts(V, F, UV, F)
+    assert layout_intent(f).degenerate.sum() == 1 and (f.det > 0).all()
+    res = repair_layout(V, F, UV, F, "test", device="cpu", purpose="texture")
+    after = layout_facts(V, F, res.UV, res.FUV)
+    assert validate_facts(after, purpose="texture", check_padding=False)["valid"]
+    assert not layout_intent(after).degenerate.any()
+    # a bake's rules: the face gets no texel (written as float32 its det J is 0): a flip, and repaired
+    assert validate_facts(f, purpose="bake", check_padding=False)["flips"] == 1
+    res = repair_layout(V, F, UV, F, "test", device="cpu", purpose="bake", repack=True)
+    assert validate_facts(layout_facts(V, F, res.UV, res.FUV), purpose="bake", check_padding=False)["valid"]
+
+
+def test_a_local_repair_never_returns_a_face_collapsed_on_rows_it_may_not_move():
+    # two pinned rows at one point (a quantized or simplified layout; rows shared with another shell) hold their
+    # face collapsed whatever the free rows do; rounding gave its det J +1e-17, and the region came back "repaired"
+    from conftest import grid
+    from neuraluv.layout.facts import uv_degenerate
+    from neuraluv.meshfix import normalize_unit_box
+    from neuraluv.repair.local import IslandGraph, repair_cluster
+
+    V, F = grid(6, 6)
+    UV = V[:, :2].copy()
+    UV[3] = UV[2] + [1e-15, 1e-15]  # rows 2 and 3 (pinned) a hair apart: face (2, 3, 10) has no UV area
+    UV /= 6
+    face = int(np.flatnonzero((np.sort(F, 1) == [2, 3, 10]).all(1))[0])
+    locked = np.zeros(len(UV), bool)
+    locked[[2, 3]] = True
+    graph = IslandGraph(F, np.arange(len(F)), len(UV), locked=locked)
+    Vn = normalize_unit_box(V)[0]
+    out, info = repair_cluster(Vn, F, UV, F, graph, np.array([face]), 1 / 6, config="test", device="cpu")
+    assert out is not None or info["step"] == "escalate"  # to the whole shell, which may move those rows
+    if out is not None:
+        from neuraluv.metrics import face_dets
+
+        d = face_dets(Vn, F, out, F)
+        assert (d > 0).all() and not uv_degenerate(out, F, d).any(), info
+
+
 def test_default_purpose_is_printed_and_one_flag_changes_it(tmp_path, capsys):
     from neuraluv.cli import main
 

@@ -33,10 +33,14 @@ from neuraluv.topology import faces_sharing
 __all__ = ["LayoutFacts", "layout_facts", "uv_islands", "coincident_rows", "face_clusters", "within_rings",
            "texel_density", "island_densities",
            "face_texel_density",
-           "density_spread", "DEGENERATE_3D_AREA", "defect_area", "SURFACE_FACTOR", "holds_more"]
+           "density_spread", "DEGENERATE_3D_AREA", "DEGENERATE_UV", "uv_degenerate", "defect_area", "SURFACE_FACTOR",
+           "holds_more"]
 
 #: Faces of the unit-box mesh with less 3D area than this have no distortion (their UVs are left alone).
 DEGENERATE_3D_AREA = 1e-14
+
+#: Relative UV area below which a face is UV-degenerate (area / longest UV edge², scale-free).
+DEGENERATE_UV = 1e-12
 
 
 #: One part of a layout (an orientation of an island, a sheet) holding more than this multiple of another's 3D area
@@ -357,8 +361,14 @@ class LayoutFacts:
 
     @property
     def bad(self):
-        """(m,) bool: usable faces with det J ≤ 0 (flipped or degenerate in UV; no-3D-area faces excluded)."""
-        return self.usable & ~(self.det > 0) & ~self.degenerate3d
+        """(m,) bool: usable faces flipped or degenerate in UV (det J ≤ 0, or :func:`uv_degenerate`: det J > 0 by
+        rounding alone); no-3D-area faces excluded."""
+        if "bad" not in self._cache:
+            use = np.flatnonzero(self.usable & ~self.degenerate3d)
+            bad = np.zeros(len(self.F), bool)
+            bad[use] = ~(self.det[use] > 0) | uv_degenerate(self.UV, self.FUV[use], self.det[use], self.signed_uv[use])
+            self._cache["bad"] = bad
+        return self._cache["bad"]
 
     @property
     def oriented(self):
@@ -428,6 +438,23 @@ class LayoutFacts:
         and ``area`` (UV) of each."""
         self.overlaps()
         return self._cache["ignored"]
+
+
+def uv_degenerate(UV, FUV, det, signed_uv=None):
+    """(k,) bool: faces ``FUV (k,3)`` collapsed in UV: UV area at most :data:`DEGENERATE_UV` of the longest UV
+    edge squared (a point or a line, whatever sign rounding gave det J), or det J (``det (k,)``) zero.
+
+    Examples
+    --------
+    >>> UV = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0 + 1e-15], [0.0, 1.0]])
+    >>> uv_degenerate(UV, np.array([[0, 1, 2], [0, 1, 3]]), np.array([1e-16, -1.0])).tolist()
+    [True, False]
+    """
+    FUV = np.asarray(FUV, np.int64)
+    P = np.asarray(UV, float)[FUV]
+    e2 = (np.diff(P[:, [0, 1, 2, 0]], axis=1) ** 2).sum(2).max(1)
+    s = signed_areas_2d(UV, FUV) if signed_uv is None else signed_uv
+    return ~(np.abs(s) > DEGENERATE_UV * e2) | ~(np.asarray(det) != 0)
 
 
 def layout_facts(V, F, UV, FUV=None, *, normalized=False, min_overlap=0.0):

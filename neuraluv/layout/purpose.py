@@ -71,12 +71,12 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from neuraluv.layout import PURPOSES
-from neuraluv.layout.facts import holds_more, within_rings
+from neuraluv.layout.facts import DEGENERATE_UV, holds_more, uv_degenerate, within_rings
 from neuraluv.layout.overlap import overlap_pairs, points_in_triangles
 from neuraluv.topology import faces_sharing, undirected_edges
 
-__all__ = ["PURPOSES", "STACKED_SHARE", "LayoutIntent", "layout_intent", "twin_layers", "default_purpose",
-           "check_purpose"]
+__all__ = ["PURPOSES", "STACKED_SHARE", "DEGENERATE_UV", "LayoutIntent", "layout_intent", "twin_layers",
+           "default_purpose", "check_purpose"]
 
 #: A sheet of the other orientation joined to its island along ``vt`` edges is a stacked copy (intentional),
 #: not a fold, when at least this share of its UV area lies on faces of the other orientation with exactly
@@ -101,8 +101,6 @@ TWIN_APART = 1e-9
 #: A sheet whose UV points are thinner than this share of their length is collapsed along a line (a palette).
 LINE_ASPECT = 1e-3
 
-#: Relative UV area below which a face is UV-degenerate (area / longest UV edge², scale-free).
-DEGENERATE_UV = 1e-12
 
 
 def check_purpose(purpose):
@@ -186,11 +184,8 @@ def _face_classes(facts):
     if not part.any():
         return cls, part
     idx = np.flatnonzero(part)
-    P = facts.UV[facts.FUV[idx]]
-    e2 = (np.diff(P[:, [0, 1, 2, 0]], axis=1) ** 2).sum(2).max(1)
-    s = facts.signed_uv[idx]
     det = facts.det[idx]
-    degen = ~(np.abs(s) > DEGENERATE_UV * e2) | ~(det != 0)
+    degen = uv_degenerate(facts.UV, facts.FUV[idx], det, facts.signed_uv[idx])
     cls[idx] = np.where(degen, 0, np.sign(det)).astype(np.int8)
     return cls, part
 

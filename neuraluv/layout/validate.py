@@ -56,8 +56,9 @@ def validate_layout(V, F, UV, FUV=None, **kw):
     Returns
     -------
     dict
-        ``flips`` (usable faces with det J ≤ 0, plus faces without finite UVs: their
-        det J is undefined), ``zero_area_faces`` (no 3D area: no distortion, not
+        ``flips`` (usable faces with det J ≤ 0 or collapsed in UV,
+        :func:`~neuraluv.layout.facts.uv_degenerate`: written as float32 a det J of 1e-17 is 0; plus faces
+        without finite UVs: their det J is undefined), ``zero_area_faces`` (no 3D area: no distortion, not
         counted as flips), ``non_finite_faces``, ``covered_faces``, ``min_det``,
         ``islands``, ``mirrored_islands``, ``overlapping_pairs`` (island pairs whose
         oriented triangles share area), ``overlap_area``, ``self_overlapping_islands``,

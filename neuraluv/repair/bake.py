@@ -17,7 +17,7 @@ from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.purpose import layout_intent
 from neuraluv.meshfix import weld_ids
 from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces, with_stretched_neighbours
-from neuraluv.repair.region import face_dets_of, self_overlap_faces
+from neuraluv.repair.region import face_dets_of, mended, self_overlap_faces
 from neuraluv.repair.shells import own_copies
 from neuraluv.repair.untangle import budget_spent
 from neuraluv.topology import vertex_components
@@ -29,16 +29,18 @@ __all__ = ["LEFT_UNDONE", "collapsed_faces", "own_rows_per_surface", "repair_isl
 LEFT_UNDONE = {"step": "left undone", "reason": "the time budget was spent before this island's repair"}
 
 
-def repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, seed, device, deadline, neural):
+def repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, seed, device, deadline, neural,
+                   keep_small=True):
     """Steps 1-3 under a bake's rules: mirrored islands reflected back, folds and self-overlaps repaired locally
     (else the whole island untangled, else re-solved). Returns ``UV, FUV``; ``actions`` and ``movers_pref`` are
-    filled in."""
+    filled in. ``keep_small``: folds below the tolerance are left as they are (False when the layout is packed
+    afresh next: an island scaled up takes its small folds above the tolerance)."""
     # an island's rows are its own: until it is changed, its det J and self-overlaps are the facts'
     ii, jj, _ = facts.overlaps()
     same = facts.label[ii] == facts.label[jj]
     over_faces = np.concatenate([ii[same], jj[same]])
     over_label = facts.label[over_faces]
-    small = facts.small_folds(facts.bad)
+    small = facts.small_folds(facts.bad) if keep_small else np.zeros(len(F), bool)
     for i in range(facts.n_islands):
         fi = facts.island_faces(i)
         dens = facts.density[i] if np.isfinite(facts.density[i]) else med
@@ -50,11 +52,12 @@ def repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, s
             movers_pref.add(i)
             det = face_dets_of(Vn, F, UVw, FUVw, fi)
             over = self_overlap_faces(UVw, FUVw, fi, det)
+            broken = ~mended(Vn, F, UVw, FUVw, fi)
         else:
-            det = facts.det[fi]
             over = np.unique(over_faces[over_label == i])
+            broken = facts.bad[fi]
         # 2./3. folds and self-overlaps, locally (folds below the tolerance are left as they are)
-        bad = fi[~(det > 0) & ~facts.degenerate3d[fi] & ~small[fi]]
+        bad = fi[broken & ~facts.degenerate3d[fi] & ~small[fi]]
         targets = np.unique(np.concatenate([bad, over]))
         if not len(targets):
             continue
@@ -65,8 +68,8 @@ def repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, s
         graph = IslandGraph(FUVw, fi, len(UVw))
         escalate = False
         for cl in face_clusters(FUVw, targets):
-            det_cl = face_dets_of(Vn, F, UVw, FUVw, cl)
-            if (det_cl > 0).all() and not len(self_overlap_faces(UVw, FUVw, fi, face_dets_of(Vn, F, UVw, FUVw, fi), cl)):
+            if mended(Vn, F, UVw, FUVw, cl).all() and not len(self_overlap_faces(UVw, FUVw, fi,
+                                                                                  face_dets_of(Vn, F, UVw, FUVw, fi), cl)):
                 continue  # fixed by an earlier cluster's region
             out, info = repair_cluster(Vn, F, UVw, FUVw, graph, cl, dens, config=cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)

@@ -216,7 +216,7 @@ def diagnose_layout(V, F, UV, FUV=None, *, resolution=1024, padding=2.0, facts=N
         lo, hi = pts.min(0), pts.max(0)
         d3 = f.degenerate3d[fi]
         flipped = fi[(d < 0) & ~d3 & ~small[fi]]
-        degen = fi[~(d < 0) & ~(d > 0) & ~d3]
+        degen = fi[f.bad[fi] & ~(d < 0) & ~d3]  # det J 0, or positive by rounding alone (uv_degenerate)
         self_pairs = int((same & (li == i)).sum())
         outside = bool(lo.min() < 0.0 or hi.max() > 1.0)
         dens = f.density[i]

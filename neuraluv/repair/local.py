@@ -30,11 +30,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, texel_density
+from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, texel_density, uv_degenerate
 from neuraluv.meshfix import face_areas, normalize_unit_box
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.repair.region import FAR_QUANTILE, _face_sd, _far_esd, region_esd, region_overlaps
-from neuraluv.repair.untangle import RegionEnergy, budget_spent, polish, untangle
+from neuraluv.repair.untangle import budget_spent, polish, untangle
 from neuraluv.solver.config import get_config
 from neuraluv.topology import undirected_edges, unique_rows
 
@@ -267,6 +267,11 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         d = texel_density(Vn, F[near], UV, FUV[near])
         return d if np.isfinite(d) else scale
 
+    def valid(U, faces):
+        """Every face of ``faces`` oriented as it should be and not collapsed (check's test, not det J > 0 alone)."""
+        d = face_dets(Vn, F[faces], U, FUV[faces]) * sgn[faces]
+        return bool(((d > 0) & ~uv_degenerate(U, FUV[faces], d)).all())
+
     def attempt(rows):
         """Untangle + polish with ``rows`` free: ``(map or None, details)``."""
         free = np.flatnonzero(rows)
@@ -280,7 +285,8 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc, deadline=deadline, sign=sign)
         ov = region_overlaps(out, FUV, region, island, allowed, group) if uinfo["ok"] else -1
         det = {"region": region, "free": free, "untangle": uinfo, "overlaps": ov, "scale": sc}
-        if not uinfo["ok"]:
+        if not (uinfo["ok"] and valid(out, region)):  # a face on pinned rows that coincide stays collapsed
+            det["untangle"] = {**uinfo, "ok": False}
             return None, det
         out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc, deadline=deadline, sign=sign)
         ov2 = region_overlaps(out2, FUV, region, island, allowed, group)
@@ -385,10 +391,9 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
     if neural and last is not None:
         r, region, free, sc = last
         start = _tutte_inside(UV, FUV, region, free)
-        if start is not None and (RegionEnergy.build(Vn, F, FUV, region, free, sc).dets(start) > 0).all() \
-                and region_overlaps(start, FUV, region, island, allowed) == 0:
+        if start is not None and valid(start, region) and region_overlaps(start, FUV, region, island, allowed) == 0:
             out, res = _try_neural(Vn, F, start, FUV, region, free, sc, config, seed, device, deadline)
-            out = out if (res is not None and res.status == "neural") else start
+            out = out if (res is not None and res.status == "neural" and valid(out, region)) else start
             if region_overlaps(out, FUV, region, island, allowed) == 0:
                 return out, {"step": "neural (ring pinned)", "rings": r, "region_faces": int(len(region)),
                              "free_rows": int(len(free)), "tried": tried, "time": time.perf_counter() - t0}

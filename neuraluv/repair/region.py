@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from neuraluv.layout.facts import within_rings
+from neuraluv.layout.facts import uv_degenerate, within_rings
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 
@@ -104,6 +104,14 @@ def face_dets_of(Vn, F, UV, FUV, faces):
     """det J of ``faces`` (an empty array for none)."""
     faces = np.asarray(faces, np.int64)
     return face_dets(Vn, F[faces], UV, FUV[faces]) if len(faces) else np.zeros(0)
+
+
+def mended(Vn, F, UV, FUV, faces):
+    """(k,) bool: ``faces`` positive and not collapsed in UV, by the test check and the read-back use
+    (:func:`~neuraluv.layout.facts.uv_degenerate`): det J > 0 alone takes rounding for a face."""
+    faces = np.asarray(faces, np.int64)
+    det = face_dets_of(Vn, F, UV, FUV, faces)
+    return (det > 0) & ~uv_degenerate(UV, FUV[faces], det) if len(faces) else np.zeros(0, bool)
 
 
 def self_overlap_faces(UV, FUV, island, det, subset=None):

@@ -275,7 +275,7 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
             UVw, FUVw, f1 = own_rows_per_surface(Vn, F, UVw, FUVw, f1, actions, movers_pref, it)
             acts1, pref1 = {j: [] for j in range(f1.n_islands)}, set()
             UVw, FUVw = repair_islands(Vn, F, UVw, FUVw, f1, acts1, pref1, med, cfg, seed=seed,
-                                        device=device, deadline=deadline, neural=neural)
+                                        device=device, deadline=deadline, neural=neural, keep_small=not repack)
             origin = input_islands(facts, f1)
             for j, a in acts1.items():
                 if origin[j] >= 0:

@@ -14,7 +14,7 @@ from neuraluv.layout.facts import face_clusters, layout_facts
 from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.layout.purpose import layout_intent, twin_layers
 from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces
-from neuraluv.repair.region import PairsWith, face_dets_of, intended_overlaps, region_overlaps
+from neuraluv.repair.region import PairsWith, face_dets_of, intended_overlaps, mended, region_overlaps
 from neuraluv.repair.seams import repair_across_shells
 from neuraluv.repair.twins import layer_sign, twin_layers_hold, twins_follow
 from neuraluv.repair.untangle import budget_spent
@@ -130,7 +130,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
         q = 0
         while q < len(queue):
             cl, q = queue[q], q + 1
-            if (face_dets_of(Vn, F, work, FUVw, cl) > 0).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
+            if mended(Vn, F, work, FUVw, cl).all() and region_overlaps(work, FUVw, cl, shell, allowed) == 0:
                 continue  # fixed by an earlier cluster's region
             if np.isin(cl, twin_done).all() and twin_layers_hold(Vn, F, work * sgn, FUVw, facts.island_faces(i), cl):
                 continue  # the twins of a fold repaired in its layers (the other half's shell)
@@ -300,7 +300,7 @@ def _resolved(Vn, F, UV, FUV, shell, shared, cl, dens, cfg, kw):
     W, FU = own_copies(UV, FUV, shell, shared) if len(shared) else (UV, FUV)
     out_uv, out_fuv, info = resolve_as_chart(Vn, F, W, FU, shell, dens, cfg, seed=kw["seed"], device=kw["device"],
                                              deadline=kw["deadline"])
-    if not (face_dets_of(Vn, F, out_uv, out_fuv, cl) > 0).all():
+    if not mended(Vn, F, out_uv, out_fuv, cl).all():
         return None, None, None
     return out_uv, out_fuv, {"step": info["step"], "time": info["time"], "pieces": info["pieces"]}
 
@@ -370,7 +370,7 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
         fl = island[mine]
         sign = np.array([layer_sign(Vn, F, out, FUV, fl), 1.0])
         work = out * sign
-        reversed_ = ~(face_dets_of(Vn, F, work, FUV, fl) > 0)
+        reversed_ = ~mended(Vn, F, work, FUV, fl)
         targets = fl[reversed_ & touch[mine]]
         if not len(targets):
             continue
@@ -406,7 +406,7 @@ def repair_twin_layers(Vn, F, UV, FUV, island, cluster, scale, *, whole=True, al
             # it was; each twin takes its face's new rows, so the copies stay stacked
             res_uv, res_fuv, info = resolve_as_chart(Vn, F, work, FUV, fl, scale, kw["config"], seed=kw["seed"],
                                                      device=kw["device"], deadline=kw.get("deadline"))
-            if (face_dets_of(Vn, F, res_uv, res_fuv, fl) > 0).all():
+            if mended(Vn, F, res_uv, res_fuv, fl).all():
                 FUV = twins_follow(FUV, res_fuv, island, mine, twin)
                 out, done = res_uv * sign, done + 1
                 continue

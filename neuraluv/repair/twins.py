@@ -12,7 +12,7 @@ from neuraluv.jacobian import signed_areas_2d
 from neuraluv.layout.facts import holds_more
 from neuraluv.layout.purpose import twin_layers
 from neuraluv.meshfix import face_areas
-from neuraluv.repair.region import face_dets_of
+from neuraluv.repair.region import face_dets_of, mended
 
 __all__ = ["layer_sign", "twin_layers_hold", "twins_follow"]
 
@@ -45,6 +45,6 @@ def twin_layers_hold(Vn, F, UV, FUV, island, cluster):
     at = np.searchsorted(island, cluster)
     for lay in np.unique(layer[at]):
         sign = np.array([layer_sign(Vn, F, UV, FUV, island[layer == lay]), 1.0])
-        if not (face_dets_of(Vn, F, UV * sign, FUV, cluster[layer[at] == lay]) > 0).all():
+        if not mended(Vn, F, UV * sign, FUV, cluster[layer[at] == lay]).all():
             return False
     return True
