@@ -106,12 +106,12 @@ def _scene_glb(tmp_path, double_sided=True):
 
 def _corner_attr(doc, lay, name):
     """The attribute ``name`` at every corner of the layout's triangles (per primitive, as read)."""
-    from neuraluv.io.gltf import _accessor
+    from neuraluv.io.gltf import read_accessor
 
     out = []
     for b in lay.blocks:
         prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
-        out.append(_accessor(doc, prim["attributes"][name]).astype(float)[b["indices"]])
+        out.append(read_accessor(doc, prim["attributes"][name]).astype(float)[b["indices"]])
     return np.concatenate(out)
 
 
@@ -177,7 +177,7 @@ def test_primitives_with_the_same_data_are_written_together(tmp_path):
     import trimesh
 
     from neuraluv.io import read_gltf_layout, write_gltf_uvs
-    from neuraluv.io.gltf import _accessor, load_gltf
+    from neuraluv.io.gltf import load_gltf, read_accessor
     from neuraluv.io.gltf_write import write_glb
 
     box = trimesh.creation.box()
@@ -206,7 +206,7 @@ def test_primitives_with_the_same_data_are_written_together(tmp_path):
     d = load_gltf(rep)
     p0, p1 = d.json["meshes"][0]["primitives"]
     assert p0["indices"] == p1["indices"] and p0["attributes"] == p1["attributes"] and p1["material"] == 1
-    corners = _accessor(d, p1["attributes"]["TEXCOORD_0"])[_accessor(d, p1["indices"]).reshape(-1)]
+    corners = read_accessor(d, p1["attributes"]["TEXCOORD_0"])[read_accessor(d, p1["indices"]).reshape(-1)]
     assert np.allclose(corners, np.c_[per_corner[:, 0], 1 - per_corner[:, 1]], atol=1e-6)
     for out in (add, rep):
         v = _gltf_validate(out)
@@ -218,7 +218,7 @@ def test_a_copied_quantized_attribute_keeps_its_elements_4_byte_aligned(tmp_path
     gets a byte stride of 4, as glTF wants of vertex attributes (the validator's MESH_PRIMITIVE_ACCESSOR_UNALIGNED)."""
     import trimesh
 
-    from neuraluv.io.gltf import _accessor, load_gltf
+    from neuraluv.io.gltf import load_gltf, read_accessor
     from neuraluv.io.gltf_write import _new_accessor
 
     src = tmp_path / "box.glb"
@@ -229,7 +229,7 @@ def test_a_copied_quantized_attribute_keeps_its_elements_4_byte_aligned(tmp_path
     acc = _new_accessor(doc, n, like=len(doc.json["accessors"]) - 1)
     view = doc.json["bufferViews"][doc.json["accessors"][acc]["bufferView"]]
     assert view["byteStride"] == 4 and view["byteOffset"] % 4 == 0 and view["byteLength"] == 12
-    assert np.array_equal(_accessor(doc, acc, raw=True), n)
+    assert np.array_equal(read_accessor(doc, acc, raw=True), n)
 
 
 @pytest.mark.slow

@@ -30,15 +30,18 @@ from neuraluv.errors import NeuralUVError
 from neuraluv.io.files import atomic_write
 from neuraluv.io.gltf_extensions import refuse_unreadable, sampled_transform, transform_map
 
-__all__ = ["GltfLayout", "read_gltf_layout", "write_gltf_uvs", "load_gltf", "image_bytes", "replace_images"]
+__all__ = ["GltfLayout", "GltfDoc", "read_gltf_layout", "load_gltf", "read_accessor", "image_bytes", "seamless_rows",
+           "COMPONENT_DTYPE", "TYPE_WIDTH", "GLB_MAGIC", "CHUNK_JSON", "CHUNK_BIN"]
 
-_DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
-_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
-_GLB_MAGIC, _JSON, _BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
+#: glTF accessor component types and element widths; the GLB header's magic and chunk types (glTF 2.0 §4.4, §5.1).
+COMPONENT_DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
+TYPE_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+GLB_MAGIC, CHUNK_JSON, CHUNK_BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
 
 
 @dataclass
-class _Doc:
+class GltfDoc:
+    """A glTF document as read (:func:`load_gltf`): its JSON, its buffers and, for a GLB, the JSON chunk's bytes."""
     path: Path
     json: dict
     buffers: list  # bytearray per buffer (the GLB's BIN chunk is buffer 0)
@@ -62,10 +65,10 @@ def load_gltf(path):
         while pos + 8 <= min(length, len(raw)):
             clen, ctype = struct.unpack("<II", raw[pos:pos + 8])
             body = raw[pos + 8:pos + 8 + clen]
-            if ctype == _JSON and doc is None:
+            if ctype == CHUNK_JSON and doc is None:
                 doc = json.loads(body.decode("utf-8"))
                 json_chunk = bytes(body)
-            elif ctype == _BIN and bin_chunk is None:
+            elif ctype == CHUNK_BIN and bin_chunk is None:
                 bin_chunk = bytearray(body)
             pos += 8 + clen
         if doc is None:
@@ -77,13 +80,13 @@ def load_gltf(path):
                 buffers.append(bin_chunk if bin_chunk is not None else bytearray())
             else:
                 buffers.append(_external(path, b))
-        return _Doc(path, doc, buffers, True, json_chunk)
+        return GltfDoc(path, doc, buffers, True, json_chunk)
     try:
         doc = json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError):
         raise NeuralUVError(f"{path.name}: neither a GLB nor glTF JSON") from None
     refuse_unreadable(path, doc)
-    return _Doc(path, doc, [_external(path, b) for b in doc.get("buffers", [])], False)
+    return GltfDoc(path, doc, [_external(path, b) for b in doc.get("buffers", [])], False)
 
 
 def _external(path, b):
@@ -99,11 +102,11 @@ def _external(path, b):
     return bytearray(p.read_bytes())
 
 
-def _accessor(doc, i, *, raw=False):
+def read_accessor(doc, i, *, raw=False):
     """Accessor ``i`` as an array (count, width); normalized integers as floats unless ``raw``."""
     a = doc.json["accessors"][i]
-    dt = np.dtype(_DTYPE[a["componentType"]]).newbyteorder("<")
-    w = _WIDTH[a["type"]]
+    dt = np.dtype(COMPONENT_DTYPE[a["componentType"]]).newbyteorder("<")
+    w = TYPE_WIDTH[a["type"]]
     n = int(a["count"])
     if "sparse" in a:
         raise NeuralUVError(f"{doc.path.name}: accessor {i} is sparse (not supported)")
@@ -321,11 +324,11 @@ def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
                 blocks[done[key]]["aliases"].append((mi, pi))
                 continue
             done[key] = len(blocks)
-            P = _accessor(doc, attrs["POSITION"]).astype(float)
-            T = np.zeros((len(P), 2)) if not name or missing else _accessor(doc, attrs[name]).astype(float)
+            P = read_accessor(doc, attrs["POSITION"]).astype(float)
+            T = np.zeros((len(P), 2)) if not name or missing else read_accessor(doc, attrs[name]).astype(float)
             if len(T) != len(P):
                 raise NeuralUVError(f"{Path(path).name}: {where}: {name} has {len(T)} entries, POSITION {len(P)}")
-            idx = _accessor(doc, prim["indices"]).reshape(-1) if "indices" in prim else np.arange(len(P))
+            idx = read_accessor(doc, prim["indices"]).reshape(-1) if "indices" in prim else np.arange(len(P))
             if len(idx) and (idx.min() < 0 or idx.max() >= len(P)):
                 raise NeuralUVError(f"{Path(path).name}: {where}: an index is out of range")
             tri = _triangles(idx, mode)

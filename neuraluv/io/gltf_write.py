@@ -27,7 +27,7 @@ import numpy as np
 
 from neuraluv.errors import NeuralUVError
 from neuraluv.io.files import atomic_write
-from neuraluv.io.gltf import _BIN, _DTYPE, _GLB_MAGIC, _JSON, _accessor, _Doc, load_gltf
+from neuraluv.io.gltf import CHUNK_BIN, CHUNK_JSON, COMPONENT_DTYPE, GLB_MAGIC, GltfDoc, load_gltf, read_accessor
 from neuraluv.io.gltf_extensions import transform_map
 
 __all__ = ["write_gltf_uvs", "write_glb", "replace_images"]
@@ -54,10 +54,10 @@ def _new_accessor(doc, arr, like=None, *, target=34962):
     arr = np.asarray(arr)
     if target == 34963:
         comp = {np.dtype(np.uint8): 5121, np.dtype(np.uint16): 5123}.get(arr.dtype, 5125)
-        dt, norm, typ = np.dtype(_DTYPE[comp]).newbyteorder("<"), False, "SCALAR"
+        dt, norm, typ = np.dtype(COMPONENT_DTYPE[comp]).newbyteorder("<"), False, "SCALAR"
     elif like is not None:
         a0 = doc.json["accessors"][like]
-        dt, comp, norm = np.dtype(_DTYPE[a0["componentType"]]).newbyteorder("<"), a0["componentType"], \
+        dt, comp, norm = np.dtype(COMPONENT_DTYPE[a0["componentType"]]).newbyteorder("<"), a0["componentType"], \
             a0.get("normalized", False)
         typ = a0["type"]
     else:
@@ -116,7 +116,7 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
     if mode == "replace" and not isinstance(layout.texcoord, int):
         raise NeuralUVError("replacing a UV set needs a layout read with one set index (add a set instead)")
     doc = layout.doc
-    doc = _Doc(doc.path, copy.deepcopy(doc.json), [bytearray(b) for b in doc.buffers], doc.glb,
+    doc = GltfDoc(doc.path, copy.deepcopy(doc.json), [bytearray(b) for b in doc.buffers], doc.glb,
                doc.json_chunk)
     original = copy.deepcopy(doc.json)
     size0 = len(doc.buffers[0])
@@ -187,12 +187,17 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
                     for v, val in zip(np.flatnonzero(changed), new):
                         buf[start + stride * v:start + stride * v + 8] = val.tobytes()
                     if "min" in acc or "max" in acc:  # declared bounds must stay true (the validator checks them)
-                        vals = _accessor(doc, acc_i)
+                        vals = read_accessor(doc, acc_i)
                         acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
                     shared["in place"] = True
                 info["texcoord"].append(layout.texcoord)
                 return
-            # a normalized integer (or odd) accessor, or none (read untextured): a float one in its place
+            if "in place" in shared or _requantized(doc, acc_i, UV, vrow, changed, own, stored, b.get("transform")):
+                shared["in place"] = True  # a 16-bit quantized set: the changed rows on its grid, the rest as they were
+                info["texcoord"].append(layout.texcoord)
+                return
+            # a normalized 8-bit (or odd) accessor, a grid the repair does not fit, or none (read untextured): a float
+            # accessor in its place
             if "uv" not in shared:
                 shared["uv"] = _new_accessor(doc, _float_uv(stored(UV[vrow])))
             put(b, prim, shared["uv"], layout.texcoord)
@@ -212,12 +217,12 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
         if mode == "replace" and name == f"TEXCOORD_{layout.texcoord}":
             continue
         if ai not in gathered:
-            gathered[ai] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+            gathered[ai] = _new_accessor(doc, read_accessor(doc, ai, raw=True)[src_v], like=ai)
         prim["attributes"][name] = gathered[ai]
     for t in prim.get("targets", []):
         for name, ai in list(t.items()):
             if ai not in gathered:
-                gathered[ai] = _new_accessor(doc, _accessor(doc, ai, raw=True)[src_v], like=ai)
+                gathered[ai] = _new_accessor(doc, read_accessor(doc, ai, raw=True)[src_v], like=ai)
             t[name] = gathered[ai]
     if "split uv" not in shared:
         shared["split uv"] = _new_accessor(doc, _float_uv(stored(UV[uniq[:, 1]])))
@@ -226,6 +231,46 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
     put(b, prim, shared["split uv"], layout.texcoord if mode == "replace" else None)
     prim["indices"] = shared["indices"]
     prim["mode"] = 4
+
+
+def _requantized(doc, acc_i, UV, vrow, changed, own, stored, transform):
+    """Write the changed rows into a normalized 16-bit UV accessor (KHR_mesh_quantization) in place, on its grid,
+    when every face they touch keeps its orientation and at least half its UV area there; False (nothing
+    written) otherwise. The rows the repair left alone keep their bytes (a float accessor in its place would
+    move every one of them by float32 rounding)."""
+    acc = doc.json["accessors"][acc_i]
+    comp = acc.get("componentType")
+    if comp not in (5122, 5123) or not acc.get("normalized") or "bufferView" not in acc or "sparse" in acc:
+        return False
+    dt = np.dtype(COMPONENT_DTYPE[comp]).newbyteorder("<")
+    top = float(np.iinfo(dt).max)
+    rows = vrow[changed]
+    g = stored(UV[rows])
+    q = np.rint(np.c_[g[:, 0], 1.0 - g[:, 1]] * top)
+    if not np.isfinite(q).all() or q.min() < (-top if comp == 5122 else 0.0) or q.max() > top:
+        return False
+    snapped = UV.copy()
+    back = np.maximum(q / top, -1.0)  # as read_accessor reads it
+    snapped[rows] = transform_map(transform)(np.c_[back[:, 0], 1.0 - back[:, 1]])
+    touch = own[np.isin(own, rows).any(1)]
+
+    def area(U):
+        a, b, c = U[touch[:, 0]], U[touch[:, 1]], U[touch[:, 2]]
+        return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+
+    a0, a1 = area(UV), area(snapped)
+    if not ((a0 == 0) | ((np.sign(a1) == np.sign(a0)) & (np.abs(a1) >= 0.5 * np.abs(a0)))).all():
+        return False
+    bv = doc.json["bufferViews"][acc["bufferView"]]
+    start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
+    stride = bv.get("byteStride") or 2 * dt.itemsize
+    buf = doc.buffers[bv["buffer"]]
+    for v, val in zip(np.flatnonzero(changed), q.astype(dt)):
+        buf[start + stride * v:start + stride * v + 2 * dt.itemsize] = val.tobytes()
+    if "min" in acc or "max" in acc:
+        vals = read_accessor(doc, acc_i, raw=True)
+        acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
+    return True
 
 
 def _free_set(prim):
@@ -239,11 +284,11 @@ def write_glb(doc, dst, keep_json=False):
     body = doc.json_chunk if keep_json and doc.json_chunk else json.dumps(doc.json, separators=(",", ":")).encode()
     body += b" " * ((-len(body)) % 4)
     binary = bytes(doc.buffers[0]) + b"\0" * ((-len(doc.buffers[0])) % 4)
-    chunks = struct.pack("<II", len(body), _JSON) + body
+    chunks = struct.pack("<II", len(body), CHUNK_JSON) + body
     if doc.json.get("buffers"):
-        chunks += struct.pack("<II", len(binary), _BIN) + binary
+        chunks += struct.pack("<II", len(binary), CHUNK_BIN) + binary
     with atomic_write(dst, "wb") as fh:
-        fh.write(struct.pack("<III", _GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
+        fh.write(struct.pack("<III", GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
 
 
 def replace_images(src, dst, images):
