@@ -219,14 +219,14 @@ def test_a_copied_quantized_attribute_keeps_its_elements_4_byte_aligned(tmp_path
     import trimesh
 
     from neuraluv.io.gltf import load_gltf, read_accessor
-    from neuraluv.io.gltf_write import _new_accessor
+    from neuraluv.io.gltf_write import new_accessor
 
     src = tmp_path / "box.glb"
     src.write_bytes(trimesh.creation.box().export(file_type="glb"))
     doc = load_gltf(src)
     n = np.array([[127, 0, 0], [0, 127, 0], [0, 0, 129]], np.uint8)
     doc.json["accessors"].append({"componentType": 5121, "normalized": True, "type": "VEC3", "count": 3})
-    acc = _new_accessor(doc, n, like=len(doc.json["accessors"]) - 1)
+    acc = new_accessor(doc, n, like=len(doc.json["accessors"]) - 1)
     view = doc.json["bufferViews"][doc.json["accessors"][acc]["bufferView"]]
     assert view["byteStride"] == 4 and view["byteOffset"] % 4 == 0 and view["byteLength"] == 12
     assert np.array_equal(read_accessor(doc, acc, raw=True), n)

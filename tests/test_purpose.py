@@ -150,20 +150,23 @@ def test_a_local_repair_never_returns_a_face_collapsed_on_rows_it_may_not_move()
 
     V, F = grid(6, 6)
     UV = V[:, :2].copy()
-    UV[3] = UV[2] + [1e-15, 1e-15]  # rows 2 and 3 (pinned) a hair apart: face (2, 3, 10) has no UV area
+    UV[3] = UV[2] + [1e-15, -1e-15]  # rows 2 and 3 (pinned) a hair apart: face (2, 3, 10) has no UV area ...
     UV /= 6
     face = int(np.flatnonzero((np.sort(F, 1) == [2, 3, 10]).all(1))[0])
-    locked = np.zeros(len(UV), bool)
-    locked[[2, 3]] = True
-    graph = IslandGraph(F, np.arange(len(F)), len(UV), locked=locked)
     Vn = normalize_unit_box(V)[0]
-    out, info = repair_cluster(Vn, F, UV, F, graph, np.array([face]), 1 / 6, config="test", device="cpu")
-    assert out is not None or info["step"] == "escalate"  # to the whole shell, which may move those rows
-    if out is not None:
-        from neuraluv.metrics import face_dets
+    from neuraluv.metrics import face_dets
 
-        d = face_dets(Vn, F, out, F)
-        assert (d > 0).all() and not uv_degenerate(out, F, d).any(), info
+    assert 0 < face_dets(Vn, F[[face]], UV, F[[face]])[0] < 1e-12  # ... and a det J positive by rounding
+    other = int(np.flatnonzero((np.sort(F, 1) == [3, 4, 11]).all(1))[0])  # a neighbour with a free row (4, 11)
+    for pinned, cluster in (([2, 3], [face]), ([2, 3, 10], [face, other])):  # the collapsed face in a region or not
+        locked = np.zeros(len(UV), bool)
+        locked[pinned] = True
+        graph = IslandGraph(F, np.arange(len(F)), len(UV), locked=locked)
+        out, info = repair_cluster(Vn, F, UV, F, graph, np.array(cluster), 1 / 6, config="test", device="cpu")
+        assert out is not None or info["step"] == "escalate"  # to the whole shell, which may move those rows
+        if out is not None:
+            d = face_dets(Vn, F, out, F)
+            assert (d > 0).all() and not uv_degenerate(out, F, d).any(), (pinned, info)
 
 
 def test_default_purpose_is_printed_and_one_flag_changes_it(tmp_path, capsys):
@@ -422,7 +425,7 @@ def test_a_repair_of_quantized_uvs_keeps_them_quantized_and_the_rest_bit_identic
     from neuraluv.cli import main
     from neuraluv.io import read_gltf_layout
     from neuraluv.io.gltf import load_gltf
-    from neuraluv.io.gltf_write import _new_accessor, write_glb
+    from neuraluv.io.gltf_write import new_accessor, write_glb
 
     name, V, F, UV, bad = fold_cases()[0]
     src = _glb(tmp_path, bad, V, F, name="q.glb")
@@ -431,7 +434,7 @@ def test_a_repair_of_quantized_uvs_keeps_them_quantized_and_the_rest_bit_identic
     g = read_gltf_layout(src).UV
     doc.json["accessors"].append({"componentType": 5123, "normalized": True, "type": "VEC2", "count": len(g)})
     q = np.rint(np.c_[g[:, 0], 1 - g[:, 1]] * 65535).astype(np.uint16)
-    prim["attributes"]["TEXCOORD_0"] = _new_accessor(doc, q, like=len(doc.json["accessors"]) - 1)
+    prim["attributes"]["TEXCOORD_0"] = new_accessor(doc, q, like=len(doc.json["accessors"]) - 1)
     doc.json["extensionsUsed"] = doc.json["extensionsRequired"] = ["KHR_mesh_quantization"]
     write_glb(doc, src)
     assert main(["repair", str(src), "-o", str(tmp_path / "fixed.glb"), "--preset", "test", "--device", "cpu"]) == 0
@@ -444,6 +447,40 @@ def test_a_repair_of_quantized_uvs_keeps_them_quantized_and_the_rest_bit_identic
     assert 0 < (~kept).sum() < len(F) / 4  # only the folds' regions moved
     assert main(["check", "--uv", str(tmp_path / "fixed.glb"), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["problems"] == []
+    v = gltf_validate(tmp_path / "fixed.glb")
+    assert v is None or v["errors"] == 0, v
+
+
+@pytest.mark.parametrize("quantized", [False, True])
+def test_a_glb_with_nan_uvs_is_repaired_into_a_file_the_validator_passes(tmp_path, capsys, quantized):
+    # NaN rows get new charts on rows of their own (split vertices, a new UV accessor): the old accessor, no longer
+    # read, kept its NaN, and the Khronos validator failed the repaired file (ACCESSOR_INVALID_FLOAT)
+    from conftest import gltf_validate
+    from neuraluv.cli import main
+    from neuraluv.io import read_layout
+    from neuraluv_paper.bench.authored import _write_damaged
+
+    name, V, F, UV, bad = fold_cases()[0]
+    src = _glb(tmp_path, UV, V, F, name="n.glb")
+    if quantized:  # the damage then moves the set to a float accessor, as a NaN needs
+        from neuraluv.io.gltf import load_gltf
+        from neuraluv.io.gltf_write import new_accessor, write_glb
+
+        doc = load_gltf(src)
+        prim = doc.json["meshes"][0]["primitives"][0]
+        doc.json["accessors"].append({"componentType": 5123, "normalized": True, "type": "VEC2", "count": len(UV)})
+        q = np.rint(np.c_[UV[:, 0], 1 - UV[:, 1]] / max(1.0, UV.max()) * 65535).astype(np.uint16)
+        prim["attributes"]["TEXCOORD_0"] = new_accessor(doc, q, like=len(doc.json["accessors"]) - 1)
+        doc.json["extensionsUsed"] = doc.json["extensionsRequired"] = ["KHR_mesh_quantization"]
+        write_glb(doc, src)
+    data = read_layout(src)
+    nan = data[2].copy()
+    nan[[10, 11, 30]] = np.nan
+    _write_damaged(src, tmp_path / "nan.glb", data[4], nan)
+    v = gltf_validate(tmp_path / "nan.glb")
+    assert v is None or v["errors"] > 0  # the damage itself is invalid glTF
+    assert main(["repair", str(tmp_path / "nan.glb"), "-o", str(tmp_path / "fixed.glb"), "--preset", "test",
+                 "--device", "cpu"]) == 0, capsys.readouterr()
     v = gltf_validate(tmp_path / "fixed.glb")
     assert v is None or v["errors"] == 0, v
 

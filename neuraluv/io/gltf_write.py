@@ -30,7 +30,7 @@ from neuraluv.io.files import atomic_write
 from neuraluv.io.gltf import CHUNK_BIN, CHUNK_JSON, COMPONENT_DTYPE, GLB_MAGIC, GltfDoc, load_gltf, read_accessor
 from neuraluv.io.gltf_extensions import transform_map
 
-__all__ = ["write_gltf_uvs", "write_glb", "replace_images"]
+__all__ = ["write_gltf_uvs", "write_glb", "replace_images", "new_accessor"]
 
 
 def _append(doc, data, *, target=None, stride=None):
@@ -48,7 +48,7 @@ def _append(doc, data, *, target=None, stride=None):
     return len(doc.json["bufferViews"]) - 1
 
 
-def _new_accessor(doc, arr, like=None, *, target=34962):
+def new_accessor(doc, arr, like=None, *, target=34962):
     """A new accessor holding ``arr`` (n,w): float32, the component type and flags of accessor ``like``, or
     (for indices, ``target=34963``) the unsigned integer type of ``arr``."""
     arr = np.asarray(arr)
@@ -149,6 +149,7 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
         shared = {}  # the accessors made for this block, given to every primitive that reads its data
         for mi, pi in layout.primitives(b):
             _write_block(doc, b, doc.json["meshes"][mi]["primitives"][pi], layout, UV, FUV, mode, put, info, shared)
+    _clear_left_behind(doc, {b["uv_accessor"] for b in layout.blocks} - {None})
     if len(doc.buffers[0]) != size0:  # data appended (the chunk read may hold padding beyond byteLength)
         doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
     write_glb(doc, dst, keep_json=doc.json == original)
@@ -192,18 +193,18 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
                     shared["in place"] = True
                 info["texcoord"].append(layout.texcoord)
                 return
-            if "in place" in shared or _requantized(doc, acc_i, UV, vrow, changed, own, stored, b.get("transform")):
+            if "in place" in shared or _requantized(doc, acc_i, UV, vrow, changed, local, stored, b.get("transform")):
                 shared["in place"] = True  # a 16-bit quantized set: the changed rows on its grid, the rest as they were
                 info["texcoord"].append(layout.texcoord)
                 return
             # a normalized 8-bit (or odd) accessor, a grid the repair does not fit, or none (read untextured): a float
             # accessor in its place
             if "uv" not in shared:
-                shared["uv"] = _new_accessor(doc, _float_uv(stored(UV[vrow])))
+                shared["uv"] = new_accessor(doc, _float_uv(stored(UV[vrow])))
             put(b, prim, shared["uv"], layout.texcoord)
             return
         if "uv" not in shared:
-            shared["uv"] = _new_accessor(doc, _float_uv(UV[vrow]))
+            shared["uv"] = new_accessor(doc, _float_uv(UV[vrow]))
         put(b, prim, shared["uv"])
         return
     # split vertices: gather every vertex attribute (and morph target) onto the new vertices
@@ -217,60 +218,131 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
         if mode == "replace" and name == f"TEXCOORD_{layout.texcoord}":
             continue
         if ai not in gathered:
-            gathered[ai] = _new_accessor(doc, read_accessor(doc, ai, raw=True)[src_v], like=ai)
+            gathered[ai] = new_accessor(doc, read_accessor(doc, ai, raw=True)[src_v], like=ai)
         prim["attributes"][name] = gathered[ai]
     for t in prim.get("targets", []):
         for name, ai in list(t.items()):
             if ai not in gathered:
-                gathered[ai] = _new_accessor(doc, read_accessor(doc, ai, raw=True)[src_v], like=ai)
+                gathered[ai] = new_accessor(doc, read_accessor(doc, ai, raw=True)[src_v], like=ai)
             t[name] = gathered[ai]
     if "split uv" not in shared:
-        shared["split uv"] = _new_accessor(doc, _float_uv(stored(UV[uniq[:, 1]])))
         tri = inv.reshape(-1).astype(np.uint32 if len(uniq) > 65535 else np.uint16)
-        shared["indices"] = _new_accessor(doc, tri.reshape(-1, 1), target=34963)
+        acc_i = b["uv_accessor"] if mode == "replace" else None
+        values = UV[uniq[:, 1]]
+        moved = (np.ascontiguousarray(values).view(np.int64)
+                 != np.ascontiguousarray(layout.UV[r0 + src_v]).view(np.int64)).any(1)
+        q = _on_grid(doc, acc_i, values, moved, tri.reshape(-1, 3).astype(np.int64),
+                     read_accessor(doc, acc_i, raw=True)[src_v] if acc_i is not None else None, stored,
+                     b.get("transform"))  # a quantized set stays quantized, its unmoved vertices' integers copied
+        shared["split uv"] = new_accessor(doc, q, like=acc_i) if q is not None else \
+            new_accessor(doc, _float_uv(stored(values)))
+        shared["indices"] = new_accessor(doc, tri.reshape(-1, 1), target=34963)
     put(b, prim, shared["split uv"], layout.texcoord if mode == "replace" else None)
     prim["indices"] = shared["indices"]
     prim["mode"] = 4
 
 
-def _requantized(doc, acc_i, UV, vrow, changed, own, stored, transform):
-    """Write the changed rows into a normalized 16-bit UV accessor (KHR_mesh_quantization) in place, on its grid,
-    when every face they touch keeps its orientation and at least half its UV area there; False (nothing
-    written) otherwise. The rows the repair left alone keep their bytes (a float accessor in its place would
-    move every one of them by float32 rounding)."""
-    acc = doc.json["accessors"][acc_i]
+def _on_grid(doc, acc_i, values, changed, faces, raw, stored, transform):
+    """A normalized 16-bit UV accessor's integers (KHR_mesh_quantization) for vertices with the layout ``values``
+    ((k,2), as read: sampled, OBJ convention): ``raw`` (k,2) where not ``changed``, the changed ones on the grid
+    (rounded; a vertex of a face the rounding broke tries the grid points around it); None when the grid cannot
+    hold the layout: a value off its range, or a face of ``faces`` ((t,3) into the k vertices) touching a changed
+    vertex that loses its orientation or nine tenths of its UV area. (A float accessor in its place would move
+    every vertex the repair left alone by float32 rounding.)"""
+    acc = doc.json["accessors"][acc_i] if acc_i is not None else {}
     comp = acc.get("componentType")
     if comp not in (5122, 5123) or not acc.get("normalized") or "bufferView" not in acc or "sparse" in acc:
-        return False
-    dt = np.dtype(COMPONENT_DTYPE[comp]).newbyteorder("<")
-    top = float(np.iinfo(dt).max)
-    rows = vrow[changed]
-    g = stored(UV[rows])
+        return None
+    top = float(np.iinfo(COMPONENT_DTYPE[comp]).max)
+    g = stored(values[changed])
     q = np.rint(np.c_[g[:, 0], 1.0 - g[:, 1]] * top)
-    if not np.isfinite(q).all() or q.min() < (-top if comp == 5122 else 0.0) or q.max() > top:
-        return False
-    snapped = UV.copy()
-    back = np.maximum(q / top, -1.0)  # as read_accessor reads it
-    snapped[rows] = transform_map(transform)(np.c_[back[:, 0], 1.0 - back[:, 1]])
-    touch = own[np.isin(own, rows).any(1)]
+    if not np.isfinite(q).all() or (len(q) and (q.min() < (-top if comp == 5122 else 0.0) or q.max() > top)):
+        return None
+    lo, tf = (-top if comp == 5122 else 0.0), transform_map(transform)
 
-    def area(U):
-        a, b, c = U[touch[:, 0]], U[touch[:, 1]], U[touch[:, 2]]
-        return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    def sampled(qv):  # grid integers (k,2) as read back (read_accessor), then where the texture samples them
+        back = np.maximum(qv / top, -1.0)
+        return tf(np.c_[back[:, 0], 1.0 - back[:, 1]])
 
-    a0, a1 = area(UV), area(snapped)
-    if not ((a0 == 0) | ((np.sign(a1) == np.sign(a0)) & (np.abs(a1) >= 0.5 * np.abs(a0)))).all():
+    def holds(fs):  # (t,) bool: faces keep their orientation and a tenth of their UV area on the grid
+        def area(U):
+            a, b, c = U[fs[:, 0]], U[fs[:, 1]], U[fs[:, 2]]
+            return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        a0, a1 = area(values), area(snapped)
+        return (a0 == 0) | ((np.sign(a1) == np.sign(a0)) & (np.abs(a1) >= 0.1 * np.abs(a0)))
+
+    qall = np.zeros((len(values), 2))
+    qall[changed] = q
+    snapped = values.copy()
+    snapped[changed] = sampled(q)
+    touch = faces[changed[faces].any(1)]
+    for _ in range(3):  # a vertex of a face the rounding broke tries the grid points around it
+        broken = touch[~holds(touch)]
+        if not len(broken):
+            break
+        for v in np.unique(broken[changed[broken]]):
+            around = faces[(faces == v).any(1)]
+            for step in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)):
+                trial = qall[v] + step
+                if trial.min() < lo or trial.max() > top:
+                    continue
+                keep = snapped[v].copy()
+                snapped[v] = sampled(trial[None])[0]
+                if holds(around).all():
+                    qall[v] = trial
+                    break
+                snapped[v] = keep
+    if not holds(touch).all():
+        return None
+    out = np.array(raw)
+    out[changed] = qall[changed]
+    return out.astype(COMPONENT_DTYPE[comp])
+
+
+def _requantized(doc, acc_i, UV, vrow, changed, local, stored, transform):
+    """The changed vertices of a 16-bit quantized UV accessor written in place on its grid (:func:`_on_grid`);
+    False (nothing written) when the grid does not hold the layout."""
+    q = _on_grid(doc, acc_i, UV[vrow], changed, local, read_accessor(doc, acc_i, raw=True) if acc_i is not None
+                 else None, stored, transform)
+    if q is None:
         return False
+    acc = doc.json["accessors"][acc_i]
     bv = doc.json["bufferViews"][acc["bufferView"]]
     start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
-    stride = bv.get("byteStride") or 2 * dt.itemsize
+    width = 2 * q.dtype.itemsize
+    stride = bv.get("byteStride") or width
     buf = doc.buffers[bv["buffer"]]
-    for v, val in zip(np.flatnonzero(changed), q.astype(dt)):
-        buf[start + stride * v:start + stride * v + 2 * dt.itemsize] = val.tobytes()
+    for v in np.flatnonzero(changed):
+        buf[start + stride * v:start + stride * v + width] = q[v].astype(q.dtype.newbyteorder("<")).tobytes()
     if "min" in acc or "max" in acc:
         vals = read_accessor(doc, acc_i, raw=True)
         acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
     return True
+
+
+def _clear_left_behind(doc, replaced):
+    """Zero the non-finite values of the float accessors of ``replaced`` that no primitive reads any longer (a UV
+    set with NaN rows a repair gave a new accessor): the file keeps no value the glTF validator calls invalid."""
+    live = set()
+    for mesh in doc.json.get("meshes", []):
+        for p in mesh.get("primitives", []):
+            live |= set(p.get("attributes", {}).values()) | {x for t in p.get("targets", []) for x in t.values()}
+    for ai in sorted(set(replaced) - live):
+        acc = doc.json["accessors"][ai]
+        if acc.get("componentType") != 5126 or "bufferView" not in acc or "sparse" in acc:
+            continue
+        vals = read_accessor(doc, ai)
+        bad = np.argwhere(~np.isfinite(vals))
+        if not len(bad):
+            continue
+        bv = doc.json["bufferViews"][acc["bufferView"]]
+        start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
+        stride = bv.get("byteStride") or 4 * vals.shape[1]
+        for r, c in bad:
+            doc.buffers[bv["buffer"]][start + stride * r + 4 * c:start + stride * r + 4 * c + 4] = bytes(4)
+        if "min" in acc or "max" in acc:
+            vals = read_accessor(doc, ai)
+            acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
 
 
 def _free_set(prim):

@@ -279,7 +279,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         region = region[face_areas(Vn, F[region]) > DEGENERATE_3D_AREA]  # no 3D area: no distortion to untangle
         sc = local_scale(rows)
         rest = np.setdiff1d(cluster, region)  # cluster faces with no free row: they stay as they are
-        if len(rest) and not (face_dets(Vn, F[rest], UV, FUV[rest]) * sgn[rest] > 0).all():
+        if len(rest) and not valid(UV, rest):
             return None, {"region": region, "free": free, "untangle": {"ok": False}, "overlaps": -1, "scale": sc,
                           "why": "cluster faces outside the region are still folded"}
         out, uinfo = untangle(Vn, F, UV, FUV, region, free, scale=sc, deadline=deadline, sign=sign)

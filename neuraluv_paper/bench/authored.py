@@ -98,12 +98,19 @@ def _write_damaged(src, dst, data, UV):
         fin = np.where(np.isfinite(UV), UV, np.nan)
         write_gltf_uvs(data, np.where(np.isfinite(fin), fin, 0.0), data.FUV, dst)
         if not np.isfinite(UV).all():  # a NaN in a float accessor: write the bits directly
-            from neuraluv.io.gltf import load_gltf
-            from neuraluv.io.gltf_write import write_glb
+            from neuraluv.io.gltf import load_gltf, read_accessor
+            from neuraluv.io.gltf_write import new_accessor, write_glb
 
             doc = load_gltf(dst)
+            same_json = True
             for b in data.blocks:  # each primitive's own UV accessor holds its rows
                 prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
+                if doc.json["accessors"][prim["attributes"]["TEXCOORD_0"]]["componentType"] != 5126:
+                    # a quantized set holds no NaN: its values go to a float accessor (as a repair would write it)
+                    vals = read_accessor(doc, prim["attributes"]["TEXCOORD_0"]).astype("<f4")
+                    prim["attributes"]["TEXCOORD_0"] = new_accessor(doc, vals)
+                    doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+                    same_json = False
                 acc = doc.json["accessors"][prim["attributes"]["TEXCOORD_0"]]
                 bv = doc.json["bufferViews"][acc["bufferView"]]
                 start = bv.get("byteOffset", 0) + acc.get("byteOffset", 0)
@@ -111,7 +118,7 @@ def _write_damaged(src, dst, data, UV):
                 r0, nr = b["rows"]
                 for r in np.flatnonzero(~np.isfinite(UV[r0:r0 + nr]).all(1)):
                     doc.buffers[0][start + stride * r:start + stride * r + 8] = np.full(2, np.nan, "<f4").tobytes()
-            write_glb(doc, dst, keep_json=True)
+            write_glb(doc, dst, keep_json=same_json)
 
 
 def _kept_outside(path, out, untouched):
