@@ -102,7 +102,6 @@ TWIN_APART = 1e-9
 LINE_ASPECT = 1e-3
 
 
-
 def check_purpose(purpose):
     """The purpose's canonical name, or ``ValueError`` naming the choices.
 

@@ -291,11 +291,12 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         out2, pinfo = polish(Vn, F, out, FUV, region, free, scale=sc, deadline=deadline, sign=sign)
         ov2 = region_overlaps(out2, FUV, region, island, allowed, group)
         det["polish"] = pinfo
+        ok2 = ov2 == 0 and valid(out2, region)
         if ov == 0:
-            return (out if ov2 else out2), det  # the polish moved a triangle over another: keep the untangled map
+            return (out2 if ok2 else out), det  # the polish moved a triangle over another: keep the untangled map
         # untangled but overlapping (a stretched rim laid over the island): the polish pulls it back, or fails
         det["overlaps"] = ov2
-        return (None if ov2 else out2), det
+        return (out2 if ok2 else None), det
 
     # first the cluster's inner rows only (every face around them is in the cluster): a fold's damage is often
     # just those, and freeing them leaves the cluster's rim rows, and every face beyond, bit-identical
