@@ -1,8 +1,4 @@
-import json
 import os
-import shutil
-import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -96,25 +92,18 @@ def write_layout(path, V, F, UV, FUV):
     path.write_text("\n".join(lines) + "\n")
 
 
-ROOT = Path(__file__).resolve().parents[1]
-GLTF_VALIDATOR = ROOT / ".cache" / "node" / "node_modules" / "gltf-validator"
-
-
 def gltf_validator_missing():
-    """Why the Khronos glTF validator cannot run here, or None."""
-    if shutil.which("node") is None:
-        return "node is not installed: the Khronos glTF validator cannot run"
-    if not GLTF_VALIDATOR.exists():
-        return "the Khronos glTF validator is not installed (make gltf-validator)"
-    return None
+    """Why the Khronos glTF validator cannot run here, or None (:mod:`neuraluv_paper.gltf_validator`)."""
+    from neuraluv_paper.gltf_validator import validator_missing
+
+    return validator_missing()
 
 
 def gltf_validate(path):
     """The Khronos glTF validator's summary of ``path`` (``errors``, ``warnings``, ``messages``), or None
     when it cannot run here (:func:`gltf_validator_missing` says why; a test of its own skips with it)."""
-    if gltf_validator_missing():
-        return None
-    out = subprocess.run(["node", str(ROOT / "data_scripts" / "gltf_validate.js"), str(path)], capture_output=True,
-                         text=True, timeout=120, env={**os.environ, "NODE_PATH": str(GLTF_VALIDATOR.parent)})
-    assert out.returncode == 0, out.stdout + out.stderr
-    return json.loads(out.stdout)
+    from neuraluv_paper.gltf_validator import gltf_validate as validate
+
+    out = validate(path)
+    assert out is None or "fatal" not in out, out
+    return out

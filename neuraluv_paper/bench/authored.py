@@ -35,6 +35,7 @@ from neuraluv.io import patch_obj, read_gltf_layout, read_layout, write_gltf_uvs
 from neuraluv.layout.facts import layout_facts
 from neuraluv_paper import damage
 from neuraluv_paper.bench.provenance import BenchOutput, command_line, machine_info, markdown_table, write_csv, write_markdown
+from neuraluv_paper.gltf_validator import gltf_validate, validator_missing
 
 __all__ = ["bench", "add_arguments", "run", "largest_island_rows"]
 
@@ -132,6 +133,14 @@ def _kept_outside(path, out, untouched):
     return float(same[untouched].mean())
 
 
+def _validator_errors(path):
+    """The Khronos glTF validator's error count for ``path`` (None where it cannot run: node or the package missing)."""
+    v = gltf_validate(path)
+    if v is None:
+        return None
+    return int(v["errors"]) if "fatal" not in v else max(1, int(v.get("errors", 1)))  # unreadable: an error
+
+
 def _repair_row(asset, case, path, out, tmp, untouched=None):
     rep = tmp / "r.json"
     code, so, se, secs = _cli(["repair", path, "-o", out, "--report", rep, "--device", "cpu"])
@@ -139,6 +148,8 @@ def _repair_row(asset, case, path, out, tmp, untouched=None):
     if untouched is not None and Path(out).exists():
         row["kept_outside_damage"] = _kept_outside(path, out, untouched)
         row["damaged_faces"] = int((~untouched).sum())
+    if Path(out).suffix.lower() == ".glb" and Path(out).exists():
+        row["validator_errors"] = _validator_errors(out)
     if rep.exists():
         r = json.loads(rep.read_text())
         b = r["readback"]
@@ -220,6 +231,8 @@ def bench(*, output="results/authored", seed=0, damaged=True, meshes=None, argv=
             code, so, se, secs = _cli(["repair", work, "-o", tmp / "lm.glb", "--purpose", "lightmap", "--device", "cpu",
                                        "--report", tmp / "lm.json"])
             row = {"asset": fname, "case": "lightmap (TEXCOORD_1)", "exit": code, "time_s": secs}
+            if (tmp / "lm.glb").exists():
+                row["validator_errors"] = _validator_errors(tmp / "lm.glb")
             if (tmp / "lm.json").exists():
                 b = json.loads((tmp / "lm.json").read_text())["readback"]
                 t0a = read_gltf_layout(work)  # TEXCOORD_0 of the primitives that had it (the others may get it filled)
@@ -281,13 +294,20 @@ def _markdown(rows, notes):
     if lm:
         summary.append(f"- Lightmaps (GLB, `--purpose lightmap`): **{sum(bool(r.get('valid_read_back')) for r in lm)}/{len(lm)}** "
                        f"valid with padding held; TEXCOORD_0 kept in {sum(bool(r.get('texcoord0_kept')) for r in lm)}/{len(lm)}.")
+    glb = [r for r in rows if "validator_errors" in r]
+    ran = [r for r in glb if r["validator_errors"] is not None]
+    if glb:
+        summary.append(f"- Khronos glTF validator on every GLB written: **{sum(r['validator_errors'] == 0 for r in ran)}/"
+                       f"{len(ran)}** with no error." if ran else
+                       f"- Khronos glTF validator: not run ({validator_missing()}).")
     head = ["asset", "case", "exit", "purpose", "faces", "problems", "features", "valid", "folded after",
-            "bit-identical", "kept outside the damage", "byte-identical", "rebake mean (surface / changed)", "time (s)"]
+            "bit-identical", "kept outside the damage", "byte-identical", "rebake mean (surface / changed)",
+            "validator errors", "time (s)"]
     body = []
     for r in rows:
         if "exit" not in r:
             body.append([r["asset"], r["case"], "—", "", "", "", "", "skipped: " + r.get("error", ""), "", "", "", "", "",
-                         ""])
+                         "", ""])
             continue
         body.append([r["asset"], r["case"], r["exit"], r.get("purpose", ""), r.get("faces", ""), r.get("problems_before", ""),
                      r.get("features", ""), "yes" if r.get("valid_read_back") else ("no" if "valid_read_back" in r else "—"),
@@ -296,14 +316,16 @@ def _markdown(rows, notes):
                       if r.get("kept_outside_damage") is not None else ""),
                      {True: "yes", False: "no"}.get(r.get("byte_identical"), ""),
                      (f"{r['rebake_surface_mean']:.3f} / {r['rebake_changed_mean']:.2f}" if "rebake_surface_mean" in r else ""),
-                     f"{r['time_s']:.1f}"])
+                     "" if r.get("validator_errors") is None else r["validator_errors"], f"{r['time_s']:.1f}"])
     text = [*summary, "", markdown_table(head, body), "",
             "*exit*: 0 valid, 3 written but read back not valid (the report says which faces), 2 refused with a "
             "one-line reason, 1 internal error. *bit-identical*: faces whose corners keep the input's UV bits and "
             "indices. *kept outside the damage*: of the faces whose UVs the added damage did not change, the share the "
             "repair kept bit for bit (the faces an asset's own problems need are among them). *rebake*: colour difference of the textured surface before and after at 100,000 area-uniform "
             "points (Euclidean over RGB, 8-bit levels), over the whole surface and over the changed faces alone. "
-            "Lightmap rows: *folded after* is flips of the new UV set; the padding is the command's default (2 texels at 1024)."]
+            "Lightmap rows: *folded after* is flips of the new UV set; the padding is the command's default (2 texels at 1024). "
+            "*validator errors*: the Khronos glTF validator (npm `gltf-validator`) on the GLB written (blank: an OBJ, or "
+            "the validator not installed)."]
     text += [f"- {n}" for n in notes]
     return "\n".join(text)
 
