@@ -485,6 +485,37 @@ def test_a_glb_with_nan_uvs_is_repaired_into_a_file_the_validator_passes(tmp_pat
     assert v is None or v["errors"] == 0, v
 
 
+def test_the_khronos_duck_quantized_to_16_bits_is_repaired_locally(tmp_path, capsys):
+    # a real asset with 16-bit UVs (KHR_mesh_quantization): its folds are repaired locally, on the accessor's grid
+    from neuraluv import datasets
+    from neuraluv.cli import main
+    from neuraluv.io import read_gltf_layout
+    from neuraluv.io.gltf import load_gltf
+    from neuraluv.io.gltf_write import new_accessor, write_glb
+
+    try:
+        src = datasets.authored_path("Duck.glb")
+    except datasets.DataMissing as exc:
+        pytest.skip(str(exc))
+    doc = load_gltf(src)
+    lay = read_gltf_layout(src)
+    for b in lay.blocks:
+        prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
+        g = lay.UV[b["rows"][0]:b["rows"][0] + b["rows"][1]]
+        doc.json["accessors"].append({"componentType": 5123, "normalized": True, "type": "VEC2", "count": len(g)})
+        q = np.rint(np.c_[g[:, 0], 1 - g[:, 1]] * 65535).astype(np.uint16)
+        prim["attributes"]["TEXCOORD_0"] = new_accessor(doc, q, like=len(doc.json["accessors"]) - 1)
+    doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+    doc.json["extensionsUsed"] = sorted(set(doc.json.get("extensionsUsed", [])) | {"KHR_mesh_quantization"})
+    doc.json["extensionsRequired"] = ["KHR_mesh_quantization"]
+    quant = tmp_path / "duck_q.glb"
+    write_glb(doc, quant)
+    assert main(["repair", str(quant), "-o", str(tmp_path / "fixed.glb"), "--device", "cpu", "--report",
+                 str(tmp_path / "r.json")]) == 0, capsys.readouterr()
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["readback"]["valid"] and r["faces_bit_identical"] >= 0.9, r["summary"]
+
+
 def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
     from neuraluv.errors import NeuralUVError
     from neuraluv.io import read_gltf_layout

@@ -173,6 +173,7 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                 out, info = repair_cluster(Vn, F, work, FUVw, g, cl, dens, min_rings=SEAM_OWN_RINGS + 1, **kw)
             split = np.intersect1d(np.unique(FUVw[cl]), np.flatnonzero(locked))
             before_split = (work, FUVw, locked, held, graph)
+            every = None  # the pairs the shell may keep overlapping (set by the step that allows them)
             if out is None and len(split):  # the shell's own copies of the rows it shares around the fold
                 work, FUVw = own_copies(work, FUVw, shell, split)
                 locked = np.r_[locked, np.zeros(len(split), bool)]
@@ -198,6 +199,12 @@ def repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, *, seed, device, d
                         info = {**info, "kept_overlaps": True}
             if out is None and twins and not budget_spent(deadline):  # the twin halves' whole layer, unsplit
                 out, info = _unsplit(lambda: _twin(True))
+            if out is None and every is not None and len(split) and not budget_spent(deadline):
+                # the shell's own copies of the rows it shares, keeping the overlaps the shell had (a fold on a seam
+                # whose shared rows quantization laid on one line: before the whole shell is re-solved)
+                out, info = repair_cluster(Vn, F, work, FUVw, graph, cl, dens, **{**kw, "allowed": every})
+                if out is not None:
+                    info = {**info, "split_rows": int(len(split)), "kept_overlaps": True}
             if out is None and budget_spent(deadline):
                 actions[i].append({"step": "left undone", "cluster_faces": int(len(cl)), "shell": int(k),
                                    "reason": "the time budget was spent"})
