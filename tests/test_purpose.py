@@ -455,10 +455,13 @@ def test_a_repair_of_quantized_uvs_keeps_them_quantized_and_the_rest_bit_identic
 def test_a_glb_with_nan_uvs_is_repaired_into_a_file_the_validator_passes(tmp_path, capsys, quantized):
     # NaN rows get new charts on rows of their own (split vertices, a new UV accessor): the old accessor, no longer
     # read, kept its NaN, and the Khronos validator failed the repaired file (ACCESSOR_INVALID_FLOAT)
-    from conftest import gltf_validate
+    from conftest import gltf_validate, gltf_validator_missing
     from neuraluv.cli import main
     from neuraluv.io import read_layout
     from neuraluv_paper.bench.authored import _write_damaged
+
+    if gltf_validator_missing():  # the validator is what this test asks
+        pytest.skip(gltf_validator_missing())
 
     name, V, F, UV, bad = fold_cases()[0]
     src = _glb(tmp_path, UV, V, F, name="n.glb")

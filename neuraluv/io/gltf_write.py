@@ -193,7 +193,7 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
                     shared["in place"] = True
                 info["texcoord"].append(layout.texcoord)
                 return
-            if "in place" in shared or _requantized(doc, acc_i, UV, vrow, changed, local, stored, b.get("transform")):
+            if "in place" in shared or _requantized(doc, acc_i, UV, vrow, changed, local, b.get("transform")):
                 shared["in place"] = True  # a 16-bit quantized set: the changed rows on its grid, the rest as they were
                 info["texcoord"].append(layout.texcoord)
                 return
@@ -231,8 +231,7 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
         values = UV[uniq[:, 1]]
         moved = (np.ascontiguousarray(values).view(np.int64)
                  != np.ascontiguousarray(layout.UV[r0 + src_v]).view(np.int64)).any(1)
-        q = _on_grid(doc, acc_i, values, moved, tri.reshape(-1, 3).astype(np.int64),
-                     read_accessor(doc, acc_i, raw=True)[src_v] if acc_i is not None else None, stored,
+        q = _on_grid(doc, acc_i, values, moved, tri.reshape(-1, 3).astype(np.int64), src_v,
                      b.get("transform"))  # a quantized set stays quantized, its unmoved vertices' integers copied
         shared["split uv"] = new_accessor(doc, q, like=acc_i) if q is not None else \
             new_accessor(doc, _float_uv(stored(values)))
@@ -242,9 +241,10 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
     prim["mode"] = 4
 
 
-def _on_grid(doc, acc_i, values, changed, faces, raw, stored, transform):
+def _on_grid(doc, acc_i, values, changed, faces, src, transform):
     """A normalized 16-bit UV accessor's integers (KHR_mesh_quantization) for vertices with the layout ``values``
-    ((k,2), as read: sampled, OBJ convention): ``raw`` (k,2) where not ``changed``, the changed ones on the grid
+    ((k,2), as read through ``transform``: sampled, OBJ convention): the accessor's own integers at vertices ``src``
+    (k,) where not ``changed``, the changed ones on the grid
     (rounded; a vertex of a face the rounding broke tries the grid points around it); None when the grid cannot
     hold the layout: a value off its range, or a face of ``faces`` ((t,3) into the k vertices) touching a changed
     vertex that loses its orientation or nine tenths of its UV area. (A float accessor in its place would move
@@ -254,7 +254,7 @@ def _on_grid(doc, acc_i, values, changed, faces, raw, stored, transform):
     if comp not in (5122, 5123) or not acc.get("normalized") or "bufferView" not in acc or "sparse" in acc:
         return None
     top = float(np.iinfo(COMPONENT_DTYPE[comp]).max)
-    g = stored(values[changed])
+    g = transform_map(transform, inverse=True)(values[changed])  # where the set stores them
     q = np.rint(np.c_[g[:, 0], 1.0 - g[:, 1]] * top)
     if not np.isfinite(q).all() or (len(q) and (q.min() < (-top if comp == 5122 else 0.0) or q.max() > top)):
         return None
@@ -294,16 +294,15 @@ def _on_grid(doc, acc_i, values, changed, faces, raw, stored, transform):
                 snapped[v] = keep
     if not holds(touch).all():
         return None
-    out = np.array(raw)
+    out = read_accessor(doc, acc_i, raw=True)[src]
     out[changed] = qall[changed]
     return out.astype(COMPONENT_DTYPE[comp])
 
 
-def _requantized(doc, acc_i, UV, vrow, changed, local, stored, transform):
+def _requantized(doc, acc_i, UV, vrow, changed, local, transform):
     """The changed vertices of a 16-bit quantized UV accessor written in place on its grid (:func:`_on_grid`);
     False (nothing written) when the grid does not hold the layout."""
-    q = _on_grid(doc, acc_i, UV[vrow], changed, local, read_accessor(doc, acc_i, raw=True) if acc_i is not None
-                 else None, stored, transform)
+    q = _on_grid(doc, acc_i, UV[vrow], changed, local, np.arange(len(vrow)), transform)
     if q is None:
         return False
     acc = doc.json["accessors"][acc_i]

@@ -360,15 +360,20 @@ class LayoutFacts:
         return self.label >= 0
 
     @property
-    def bad(self):
-        """(m,) bool: usable faces flipped or degenerate in UV (det J ≤ 0, or :func:`uv_degenerate`: det J > 0 by
-        rounding alone); no-3D-area faces excluded."""
-        if "bad" not in self._cache:
+    def collapsed(self):
+        """(m,) bool: usable faces with 3D area collapsed in UV (:func:`uv_degenerate`; read once)."""
+        if "collapsed" not in self._cache:
             use = np.flatnonzero(self.usable & ~self.degenerate3d)
-            bad = np.zeros(len(self.F), bool)
-            bad[use] = ~(self.det[use] > 0) | uv_degenerate(self.UV, self.FUV[use], self.det[use], self.signed_uv[use])
-            self._cache["bad"] = bad
-        return self._cache["bad"]
+            out = np.zeros(len(self.F), bool)
+            out[use] = uv_degenerate(self.UV, self.FUV[use], self.det[use], self.signed_uv[use])
+            self._cache["collapsed"] = out
+        return self._cache["collapsed"]
+
+    @property
+    def bad(self):
+        """(m,) bool: usable faces flipped or degenerate in UV (det J ≤ 0, or :attr:`collapsed`: det J > 0 by
+        rounding alone); no-3D-area faces excluded."""
+        return self.usable & ~self.degenerate3d & (~(self.det > 0) | self.collapsed)
 
     @property
     def oriented(self):

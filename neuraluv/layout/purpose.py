@@ -71,7 +71,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from neuraluv.layout import PURPOSES
-from neuraluv.layout.facts import DEGENERATE_UV, holds_more, uv_degenerate, within_rings
+from neuraluv.layout.facts import DEGENERATE_UV, holds_more, within_rings
 from neuraluv.layout.overlap import overlap_pairs, points_in_triangles
 from neuraluv.topology import faces_sharing, undirected_edges
 
@@ -183,9 +183,7 @@ def _face_classes(facts):
     if not part.any():
         return cls, part
     idx = np.flatnonzero(part)
-    det = facts.det[idx]
-    degen = uv_degenerate(facts.UV, facts.FUV[idx], det, facts.signed_uv[idx])
-    cls[idx] = np.where(degen, 0, np.sign(det)).astype(np.int8)
+    cls[idx] = np.where(facts.collapsed[idx], 0, np.sign(facts.det[idx])).astype(np.int8)
     return cls, part
 
 

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from neuraluv.layout.facts import face_clusters, layout_facts
+from neuraluv.layout.facts import face_clusters, layout_facts, uv_degenerate
 from neuraluv.layout.purpose import layout_intent
 from neuraluv.meshfix import weld_ids
 from neuraluv.repair.local import IslandGraph, repair_cluster, resolve_as_chart, untangle_faces, with_stretched_neighbours
@@ -52,7 +52,7 @@ def repair_islands(Vn, F, UVw, FUVw, facts, actions, movers_pref, med, cfg, *, s
             movers_pref.add(i)
             det = face_dets_of(Vn, F, UVw, FUVw, fi)
             over = self_overlap_faces(UVw, FUVw, fi, det)
-            broken = ~mended(Vn, F, UVw, FUVw, fi)
+            broken = ~(det > 0) | uv_degenerate(UVw, FUVw[fi], det)  # mended's test, on the dets just read
         else:
             over = np.unique(over_faces[over_label == i])
             broken = facts.bad[fi]

@@ -17,7 +17,7 @@ re-baked PNGs inside it, in place of the images they replace.
 """
 from __future__ import annotations
 
-import dataclasses
+import copy
 import io
 import json
 from pathlib import Path
@@ -135,7 +135,7 @@ def _carry_obj(inp, out, data, res):
 
 def _carry_glb(out, data, res, uv_set):
     from neuraluv.io.gltf import load_gltf
-    from neuraluv.io.gltf_extensions import texture_refs, texture_transform
+    from neuraluv.io.gltf_extensions import texture_refs, transform_map
     from neuraluv.io.gltf_write import replace_images
 
     doc = load_gltf(out)
@@ -154,7 +154,7 @@ def _carry_glb(out, data, res, uv_set):
             src = doc.json["textures"][ti["index"]].get("source")
             if src is not None:
                 ext = None if m in sampled else (ti.get("extensions") or {}).get("KHR_texture_transform")
-                used.setdefault(src, {})[json.dumps(ext, sort_keys=True)] = None if m in sampled else ti
+                used.setdefault(src, {})[json.dumps(ext, sort_keys=True)] = ext
     report, new = [], {}
     for img_i in sorted(used):
         im = doc.json["images"][img_i]
@@ -162,7 +162,7 @@ def _carry_glb(out, data, res, uv_set):
             report.append({"image": im.get("name", f"image {img_i}"),
                            "skipped": "sampled through different KHR_texture_transform transforms"})
             continue
-        tf = texture_transform(next(iter(used[img_i].values())))  # where the texture is sampled (None: the UVs)
+        ext = next(iter(used[img_i].values()))  # where the texture is sampled (None: at the UVs as read)
         try:
             from PIL import Image
 
@@ -174,7 +174,10 @@ def _carry_glb(out, data, res, uv_set):
         except Exception as exc:  # noqa: BLE001 - an unreadable image: say so, carry on
             report.append({"image": im.get("name", f"image {img_i}"), "skipped": f"could not read ({type(exc).__name__})"})
             continue
-        view = res if tf is None else dataclasses.replace(res, UV_in=tf(res.UV_in), UV=tf(res.UV))  # as sampled
+        view = res
+        if ext is not None:  # the layouts as sampled (a copy: a RepairResult, or the atlas's namespace)
+            view, tf = copy.copy(res), transform_map(ext)
+            view.UV_in, view.UV = tf(res.UV_in), tf(res.UV)
         img1, info = rebake_image(img0, view.UV_in, view.FUV_in, view.UV, view.FUV, view.changed_faces)
         new[img_i] = _png(img1)
         app = _measure(view, img0, img1)
