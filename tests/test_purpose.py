@@ -655,20 +655,28 @@ def test_hostile_gltf_layouts_get_one_line_or_a_result(tmp_path, capsys):
         assert len(err) == 1 and why in err[0], err
 
 
-def test_a_gltf_with_external_buffers_is_repaired_with_a_note(tmp_path, capsys):
+def test_a_gltf_with_several_external_buffers_is_repaired_into_a_glb_holding_them(tmp_path, capsys):
     import trimesh
 
     from neuraluv.cli import main
     from neuraluv.io import read_gltf_layout
+    from neuraluv.io.gltf import load_gltf, read_accessor
 
     _, V, F, UV, bad = fold_cases()[0]
     files = trimesh.exchange.gltf.export_gltf(trimesh.Scene(trimesh.Trimesh(
         V, F, process=False, visual=trimesh.visual.TextureVisuals(uv=bad))))
     for name, data in files.items():
         (tmp_path / name).write_bytes(data)
-    assert main(["repair", str(tmp_path / "model.gltf"), "-o", str(tmp_path / "o.glb"), "--device", "cpu"]) == 0
-    out = capsys.readouterr().out
-    assert "keeps positions and UVs only" in out and "re-baked" not in out
+    src = tmp_path / "model.gltf"
+    assert len(load_gltf(src).buffers) > 1  # trimesh writes one .bin per accessor
+    assert main(["repair", str(src), "-o", str(tmp_path / "o.glb"), "--device", "cpu"]) == 0
+    assert "keeps positions and UVs only" not in capsys.readouterr().out
+    a, b = load_gltf(src), load_gltf(tmp_path / "o.glb")
+    assert b.glb and len(b.buffers) == 1 and a.json["meshes"] == b.json["meshes"] and a.json["nodes"] == b.json["nodes"]
+    pa, pb = a.json["meshes"][0]["primitives"][0], b.json["meshes"][0]["primitives"][0]
+    ia, ib = read_accessor(a, pa["indices"]).ravel(), read_accessor(b, pb["indices"]).ravel()
+    assert np.array_equal(read_accessor(a, pa["attributes"]["POSITION"])[ia],
+                          read_accessor(b, pb["attributes"]["POSITION"])[ib])
     assert read_gltf_layout(tmp_path / "o.glb").F.shape == F.shape
 
 

@@ -19,9 +19,10 @@ __all__ = ["write_atlas", "read_atlas", "save_renders", "atlas_file"]
 
 
 def write_atlas(path, V, F, UV, FUV):
-    """Write an atlas as OBJ (per-corner ``vt``) or GLB (``TEXCOORD_0``), atomically.
+    """Write an atlas as OBJ (per-corner ``vt``), GLB or glTF (``TEXCOORD_0``; ``.gltf`` with its ``.bin``
+    beside it), atomically.
 
-    For GLB, one vertex is written per distinct (position, UV) pair.
+    For glTF, one vertex is written per distinct (position, UV) pair.
     """
     path = Path(path)
     ext = path.suffix.lower()
@@ -36,10 +37,20 @@ def write_atlas(path, V, F, UV, FUV):
         mesh = trimesh.Trimesh(vertices=np.asarray(V, float)[uniq[:, 0]], faces=inv.reshape(-1, 3),
                                visual=TextureVisuals(uv=np.asarray(UV, float)[uniq[:, 1]]), process=False)
         data = mesh.export(file_type="glb")
+        if ext == ".gltf":  # the same document as JSON, its buffer beside it
+            import tempfile
+
+            from neuraluv.io.gltf import load_gltf
+            from neuraluv.io.gltf_write import write_gltf
+
+            with tempfile.TemporaryDirectory() as d:
+                (Path(d) / "atlas.glb").write_bytes(data)
+                write_gltf(load_gltf(Path(d) / "atlas.glb"), path)
+            return
         with atomic_write(path, "wb") as fh:
             fh.write(data)
     else:
-        raise NeuralUVError(f"output must be .obj or .glb, got {path.name}")
+        raise NeuralUVError(f"output must be .obj, .glb or .gltf, got {path.name}")
 
 
 def read_atlas(path):
@@ -117,8 +128,9 @@ def _read_input(inp, replace_uvs):
     return (*load_mesh(inp), None)
 
 
-def _write_output(inp, out, data, V, F, UV, FUV, *, replace_uvs, rebake):
-    """Write the atlas into a copy of the input (OBJ lines / GLB scene kept), else as a new file.
+def _write_output(inp, out, data, V, F, UV, FUV, *, replace_uvs, rebake, base=None):
+    """Write the atlas into a copy of the input (OBJ lines / glTF scene kept), else as a new file (``base``: the
+    folder a glTF ``out`` written into a staging folder ends up in).
 
     Returns ``written`` (what was written, ``texcoord`` per primitive for a GLB), ``textures`` (re-bakes)
     and ``notes`` (one line each: what the output does not keep).
@@ -148,24 +160,24 @@ def _write_output(inp, out, data, V, F, UV, FUV, *, replace_uvs, rebake):
             notes.append("the new vt replace the old ones: textures made for the old layout no longer fit"
                          + (" (--no-rebake)" if not rebake else " (some faces had no vt: not re-baked)"))
         return written, textures, notes
-    if isinstance(data, GltfLayout) and ext == ".glb" and data.doc.glb and len(data.doc.buffers) <= 1:
+    if isinstance(data, GltfLayout) and ext in (".glb", ".gltf"):
         p0 = len(data.UV)
         mode = "replace" if replace_uvs else "add"
-        written = {"format": ".glb", **write_gltf_uvs(data, np.vstack([data.UV, UV]), FUV + p0, out, mode=mode)}
+        written = {"format": ext, **write_gltf_uvs(data, np.vstack([data.UV, UV]), FUV + p0, out, mode=mode,
+                                                   base=base)}
         written["sets"] = dict(zip([key for b in data.blocks for key in data.primitives(b)], written["texcoord"]))
         if replace_uvs and rebake:
-            textures = _rebake(inp, out, data, V, F, data.UV, data.FUV, np.vstack([data.UV, UV]), FUV + p0)
+            textures = _rebake(inp, out, data, V, F, data.UV, data.FUV, np.vstack([data.UV, UV]), FUV + p0, base)
         return written, textures, notes
     write_atlas(out, V, F, UV, FUV)
     if data is not None:
+        keep = ".obj" if inp.suffix.lower() == ".obj" else ".glb or .gltf"
         notes.append(f"{out.suffix} output from a {inp.suffix} input keeps positions, faces and the new UVs only "
-                     f"(write {inp.suffix.lower() if inp.suffix.lower() != '.gltf' else '.glb'} to keep normals, "
-                     "materials and the rest"
-                     + (", from a .glb with its buffer inside" if isinstance(data, GltfLayout) else "") + ")")
+                     f"(write {keep} to keep normals, materials and the rest)")
     return {"format": ext}, textures, notes
 
 
-def _rebake(inp, out, data, V, F, UV0, FUV0, UV1, FUV1):
+def _rebake(inp, out, data, V, F, UV0, FUV0, UV1, FUV1, base=None):
     """Redraw the input's textures for the new layout (the repair's re-bake, every face changed)."""
     from types import SimpleNamespace
 
@@ -173,15 +185,15 @@ def _rebake(inp, out, data, V, F, UV0, FUV0, UV1, FUV1):
 
     res = SimpleNamespace(unchanged=False, V=V, F=F, UV_in=UV0, FUV_in=FUV0, UV=UV1, FUV=FUV1,
                           changed_faces=np.ones(len(F), bool))
-    return carry_textures(inp, out, data, res, uv_set=0)
+    return carry_textures(inp, out, data, res, uv_set=0, base=base)
 
 
-def _read_back(out, written):
+def _read_back(out, written, base=None):
     """``(V, F, UV, FUV)`` of the written file, as the written UV sets."""
     from neuraluv.io import read_gltf_layout
 
     if "sets" in written:
-        lay = read_gltf_layout(out, written["sets"])
+        lay = read_gltf_layout(out, written["sets"], base=base)
         return lay.V, lay.F, lay.UV, lay.FUV
     return read_atlas(out)
 
@@ -222,17 +234,17 @@ def atlas_file(inp, out, *, report=None, renders=None, replace_uvs=False, rebake
     from neuraluv.io import staged_outputs
 
     inp, out = Path(inp), Path(out)
-    if out.suffix.lower() not in (".obj", ".glb"):
-        raise NeuralUVError(f"output must be .obj or .glb, got {out.name}")
+    if out.suffix.lower() not in (".obj", ".glb", ".gltf"):
+        raise NeuralUVError(f"output must be .obj, .glb or .gltf, got {out.name}")
     V, F, data = _read_input(inp, replace_uvs)
     res = build_atlas(V, F, **kw)
     FUV_in, carried = input_layout(V, F, res.source, res.F, res.UV, res.FUV)
     with staged_outputs() as stage:
         tmp = stage(out)
         written, textures, notes = _write_output(inp, tmp, data, V, F, res.UV, FUV_in, replace_uvs=replace_uvs,
-                                                 rebake=rebake)
+                                                 rebake=rebake, base=out.parent)
         try:
-            V2, F2, UV2, FUV2 = _read_back(tmp, written)
+            V2, F2, UV2, FUV2 = _read_back(tmp, written, out.parent)
         except NeuralUVError as exc:
             raise NeuralUVError(f"the atlas could not be read back ({exc}); nothing written") from None
         # the map of the surface: a double-sided face's back side and a face wound against its neighbours

@@ -69,7 +69,7 @@ def cmd_atlas(args):
     from neuraluv.atlas.export import atlas_file
     from neuraluv.solver.device import resolve_device
 
-    _, out, _ = check_paths(args.input, args.output, args.report, output_exts=(".obj", ".glb"))
+    _, out, _ = check_paths(args.input, args.output, args.report, output_exts=(".obj", ".glb", ".gltf"))
     if args.renders:
         check_paths(output=args.renders, output_folder=True)
         require("pyvista")  # the renders need the render extra: say so before any work
@@ -215,7 +215,7 @@ def cmd_check_uv(args):
 
 def cmd_repair(args):
     from neuraluv.atlas.export import read_atlas, write_atlas
-    from neuraluv.io import (GltfLayout, patch_obj, read_gltf_layout, staged_outputs, write_gltf_uvs,
+    from neuraluv.io import (GltfLayout, patch_obj, read_gltf_layout, staged_outputs, write_gltf, write_gltf_uvs,
                              write_json)
     from neuraluv.layout.validate import validate_layout
     from neuraluv.repair.repair import repair_layout
@@ -225,7 +225,7 @@ def cmd_repair(args):
 
     t_start = time.perf_counter()
     inp, out, _ = check_paths(args.input, args.output, args.report, input_exts=(".obj", ".glb", ".gltf"),
-                              output_exts=(".obj", ".glb"), figure=args.figure)
+                              output_exts=(".obj", ".glb", ".gltf"), figure=args.figure)
     if args.resolution < 16 or 2 * args.padding >= args.resolution / 2:
         raise NeuralUVError("need --resolution >= 16 and 0 <= --padding < resolution/4")
     if not args.no_neural:
@@ -234,12 +234,10 @@ def cmd_repair(args):
     purpose, why = _purpose(args, inp, data)
     print(f"purpose: {purpose} ({why})")
     gltf = isinstance(data, GltfLayout)
-    # a GLB (its one buffer inside) is written back byte for byte but its UVs; a .gltf with external buffers is
-    # re-exported with positions and UVs only
-    patchable = gltf and data.doc.glb and len(data.doc.buffers) <= 1 and out.suffix.lower() == ".glb"
-    if gltf and not patchable and out.suffix.lower() == ".glb":
-        print(f"  note: {inp.name} is not a GLB with its buffer inside: the output keeps positions and UVs only "
-              "(convert it to .glb first to keep nodes, normals, materials and other UV sets)")
+    # a glTF / GLB is written back (as .glb or .gltf) with every byte of its data but its UVs
+    patchable = gltf and out.suffix.lower() in (".glb", ".gltf")
+    if out.suffix.lower() == ".gltf" and not gltf:
+        raise NeuralUVError(f"output {out.name}: a .gltf output needs a .glb or .gltf input (write .obj)")
     add = patchable and purpose != "texture" and not args.replace_uvs  # a lightmap goes to a UV set of its own
     res = repair_layout(V, F, UV, FUV, args.preset, seed=args.seed, device=args.device, threads=args.threads,
                         resolution=args.resolution, padding=args.padding,
@@ -255,13 +253,24 @@ def cmd_repair(args):
             written = patch_obj(inp, tmp, res.UV, res.FUV, data=data)  # every other line of the input kept byte for byte
         elif patchable and (add or not res.unchanged):
             try:  # every byte but the UV set kept: nodes, transforms, normals, materials, other UV sets
-                written = write_gltf_uvs(data, res.UV, res.FUV, tmp, mode="add" if add else "replace")
+                written = write_gltf_uvs(data, res.UV, res.FUV, tmp, mode="add" if add else "replace",
+                                         base=out.parent)
             except NeuralUVError as exc:
                 raise NeuralUVError(f"{inp.name}: {exc}") from None
             read_set = written["texcoord"][0]  # one set index on every primitive written
-        elif res.unchanged and out.suffix.lower() == inp.suffix.lower():
+        elif res.unchanged and out.suffix.lower() == inp.suffix.lower() != ".gltf":
             tmp.write_bytes(inp.read_bytes())  # nothing changed: the input's bytes, not a re-export
             written = {"format": out.suffix.lower(), "copied": True}
+        elif res.unchanged and patchable:  # the document as read, its URIs pointing from the output's folder
+            write_gltf(data.doc, tmp, keep_json=True, base=out.parent)
+            same = out.suffix.lower() == inp.suffix.lower() and tmp.read_bytes() == inp.read_bytes()
+            written = {"format": out.suffix.lower(), "copied": same}
+            if not same:
+                written["note"] = ("the same glTF document, converted to .glb (buffers and images inside)"
+                                   if out.suffix.lower() == ".glb" else
+                                   "the same glTF document; its URIs point from the output's folder at the input's "
+                                   ".bin and image files" if inp.suffix.lower() == ".gltf" else
+                                   "the same glTF document as .gltf, its buffer in a .bin beside it")
         else:
             write_atlas(tmp, res.V, res.F, res.UV, res.FUV)
             written = {"format": out.suffix.lower()}
@@ -270,13 +279,13 @@ def cmd_repair(args):
         if purpose == "texture" and not res.unchanged and not args.no_rebake and not add and kept_asset:
             from neuraluv.repair.textures import carry_textures
 
-            textures = carry_textures(inp, tmp, data, res, uv_set=args.uv_set)
+            textures = carry_textures(inp, tmp, data, res, uv_set=args.uv_set, base=out.parent)
             textures = [{**t, "written": str(out.parent / Path(t["written"]).name)} if "written" in t else t
                         for t in textures]
         # the verdict is taken on the written file, by the same purpose's rules as the check
         try:
-            if gltf and out.suffix.lower() == ".glb":
-                lay2 = read_gltf_layout(tmp, read_set, weld=purpose == "texture")  # read as the input was
+            if patchable:
+                lay2 = read_gltf_layout(tmp, read_set, weld=purpose == "texture", base=out.parent)  # as read in
                 V2, F2, UV2, FUV2 = lay2.V, lay2.F, lay2.UV, lay2.FUV
             else:
                 V2, F2, UV2, FUV2 = read_atlas(tmp)
@@ -301,6 +310,8 @@ def cmd_repair(args):
             fig.savefig(stage(args.figure), format="png", dpi=110)
             plt.close(fig)
     print(f"wrote {out}: {res.summary()}")
+    if written.get("note"):
+        print(f"  note: {written['note']}")
     _print_textures(textures)
     if gltf and isinstance(written, dict) and "texcoord" in written:
         print(f"  {'added' if add else 'replaced'} UV set TEXCOORD_{read_set}"
@@ -385,8 +396,8 @@ def register(sub):
                                    "read back and validate (0 flips, 0 overlaps, padding).", epilog=EPILOG)
     a.add_argument("input", help="mesh file")
     a.add_argument("-o", "--output", required=True,
-                   help="output .obj (per-corner vt) or .glb; an OBJ written from an OBJ, or a GLB from a GLB, keeps "
-                        "everything of the input but the new UVs")
+                   help="output .obj (per-corner vt), .glb or .gltf (its .bin beside it); an OBJ written from an OBJ, "
+                        "or a .glb / .gltf from a .glb / .gltf, keeps everything of the input but the new UVs")
     a.add_argument("--report", help="JSON report")
     a.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")
     a.add_argument("--padding", type=nonneg_float, default=4.0, help="gap between islands in texels (default 4)")
@@ -411,7 +422,7 @@ def register(sub):
                                    "other line of the input byte for byte; a valid layout comes back unchanged. "
                                    "`neuraluv check --uv IN` shows the diagnosis first.", epilog=EPILOG)
     r.add_argument("input", help="OBJ with vt (or GLB with TEXCOORD_0)")
-    r.add_argument("-o", "--output", required=True, help="output .obj or .glb")
+    r.add_argument("-o", "--output", required=True, help="output .obj, .glb or .gltf (glTF JSON, its .bin beside it)")
     r.add_argument("--report", help="JSON report: diagnosis before/after, per-island diff")
     r.add_argument("--figure", help="PNG: the layout before and after, changed faces highlighted")
     r.add_argument("--resolution", type=positive_int, default=1024, help="texture resolution for the padding (default 1024)")

@@ -6,7 +6,8 @@
              :func:`layout_materials`, :func:`obj_material_maps`
 ``obj``      :func:`read_obj` (strict), :func:`write_obj`, :func:`patch_obj` (only changed lines)
 ``gltf``     :func:`read_gltf_layout` (a UV set of every textured primitive, where its textures sample it)
-``gltf_write`` :func:`write_gltf_uvs` (a GLB copy that differs only in that UV set, or in an added one)
+``gltf_write`` :func:`write_gltf_uvs` (a ``.glb`` / ``.gltf`` copy that differs only in that UV set, or in an
+             added one), :func:`write_gltf` (a document as ``.glb`` or as ``.gltf`` with its ``.bin``)
 ``gltf_extensions`` :func:`texture_transform` (``KHR_texture_transform`` as a map of UVs); compressed
              geometry (Draco, meshopt) refused by name
 ``files``    :func:`atomic_write`, :func:`staged_outputs` (several outputs as one), :func:`jsonable`, :func:`write_json`, :func:`write_csv`
@@ -28,7 +29,8 @@ _WHERE = {"atomic_write": "files", "staged_outputs": "files", "jsonable": "files
           "check_mesh_arrays": "mesh", "load_mesh": "mesh",
           "read_layout": "layout_file", "layout_materials": "layout_file", "obj_material_maps": "layout_file",
           "ObjData": "obj", "read_obj": "obj", "write_obj": "obj", "patch_obj": "obj",
-          "GltfLayout": "gltf", "read_gltf_layout": "gltf", "write_gltf_uvs": "gltf_write", "load_gltf": "gltf",
+          "GltfLayout": "gltf", "read_gltf_layout": "gltf", "write_gltf_uvs": "gltf_write", "write_gltf": "gltf_write",
+          "load_gltf": "gltf",
           "texture_transform": "gltf_extensions"}
 
 __all__ = ["MESH_EXTENSIONS", *_WHERE]

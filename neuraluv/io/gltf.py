@@ -30,8 +30,8 @@ from neuraluv.errors import NeuralUVError
 from neuraluv.io.files import atomic_write
 from neuraluv.io.gltf_extensions import refuse_unreadable, sampled_transform, transform_map
 
-__all__ = ["GltfLayout", "GltfDoc", "read_gltf_layout", "load_gltf", "read_accessor", "image_bytes", "seamless_rows",
-           "COMPONENT_DTYPE", "TYPE_WIDTH", "GLB_MAGIC", "CHUNK_JSON", "CHUNK_BIN"]
+__all__ = ["GltfLayout", "GltfDoc", "read_gltf_layout", "load_gltf", "read_accessor", "image_bytes", "external_file",
+           "seamless_rows", "COMPONENT_DTYPE", "TYPE_WIDTH", "GLB_MAGIC", "CHUNK_JSON", "CHUNK_BIN"]
 
 #: glTF accessor component types and element widths; the GLB header's magic and chunk types (glTF 2.0 §4.4, §5.1).
 COMPONENT_DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
@@ -41,17 +41,27 @@ GLB_MAGIC, CHUNK_JSON, CHUNK_BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
 
 @dataclass
 class GltfDoc:
-    """A glTF document as read (:func:`load_gltf`): its JSON, its buffers and, for a GLB, the JSON chunk's bytes."""
+    """A glTF document as read (:func:`load_gltf`): its JSON, its buffers and the JSON's bytes as read."""
     path: Path
     json: dict
     buffers: list  # bytearray per buffer (the GLB's BIN chunk is buffer 0)
     glb: bool
-    json_chunk: bytes = b""  # the JSON chunk as read: written back unchanged when the JSON did not change
+    json_chunk: bytes = b""  # the JSON (a GLB's JSON chunk) as read: written back unchanged when it did not change
+    base: Path = None  # a second folder relative URIs resolve in (the final folder of a file written in a stage)
+
+    def folders(self):
+        """The folders a relative URI of this document resolves in, in order: the file's, then ``base``."""
+        return [self.path.parent] + ([Path(self.base)] if self.base is not None else [])
 
 
-def load_gltf(path):
-    """The JSON and the buffers of a ``.glb`` or ``.gltf`` file (one-line errors for what is not glTF 2.0)."""
+def load_gltf(path, base=None):
+    """The JSON and the buffers of a ``.glb`` or ``.gltf`` file (one-line errors for what is not glTF 2.0).
+
+    A relative URI (an external buffer or image) resolves beside the file, else in ``base``: a ``.gltf``
+    written into a staging folder refers to the unchanged files beside its final place.
+    """
     path = Path(path)
+    folders = GltfDoc(path, {}, [], False, base=base).folders()
     raw = path.read_bytes()
     if not raw.strip():
         raise NeuralUVError(f"{path.name} is empty")
@@ -79,27 +89,42 @@ def load_gltf(path):
             if "uri" not in b and i == 0:
                 buffers.append(bin_chunk if bin_chunk is not None else bytearray())
             else:
-                buffers.append(_external(path, b))
-        return GltfDoc(path, doc, buffers, True, json_chunk)
+                buffers.append(_external(path, b, folders))
+        return GltfDoc(path, doc, buffers, True, json_chunk, base)
     try:
         doc = json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError):
         raise NeuralUVError(f"{path.name}: neither a GLB nor glTF JSON") from None
+    if not isinstance(doc, dict):
+        raise NeuralUVError(f"{path.name}: its JSON is not a glTF object")
     refuse_unreadable(path, doc)
-    return GltfDoc(path, doc, [_external(path, b) for b in doc.get("buffers", [])], False)
+    return GltfDoc(path, doc, [_external(path, b, folders) for b in doc.get("buffers", [])], False, raw, base)
 
 
-def _external(path, b):
-    import base64
+def external_file(uri, folders):
+    """The file a relative ``uri`` (percent-encoded, ``/``-separated) names in the first of ``folders`` holding
+    it; None for a data URI. Raises FileNotFoundError when no folder holds it."""
     from urllib.parse import unquote
+
+    if uri.startswith("data:"):
+        return None
+    for folder in folders:
+        p = Path(folder) / unquote(uri)
+        if p.is_file():
+            return p
+    raise FileNotFoundError(uri)
+
+
+def _external(path, b, folders=None):
+    import base64
 
     uri = b.get("uri", "")
     if uri.startswith("data:"):
         return bytearray(base64.b64decode(uri.split(",", 1)[1]))
-    p = path.parent / unquote(uri)
-    if not p.is_file():
-        raise NeuralUVError(f"{path.name}: buffer {uri!r} not found beside it")
-    return bytearray(p.read_bytes())
+    try:
+        return bytearray(external_file(uri, folders or [path.parent]).read_bytes())
+    except FileNotFoundError:
+        raise NeuralUVError(f"{path.name}: {uri!r} not found beside it") from None
 
 
 def read_accessor(doc, i, *, raw=False):
@@ -269,7 +294,7 @@ class GltfLayout:
         return [(b["mesh"], b["primitive"]), *b.get("aliases", [])]
 
 
-def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
+def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True, base=None):
     """Read the ``TEXCOORD_<texcoord>`` layout of every triangle primitive of a glTF / GLB file.
 
     Parameters
@@ -286,6 +311,8 @@ def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
         Join the rows of vertices split only for their normals (:func:`seamless_rows`), so that the layout's
         islands and folds are read as the map has them (as an OBJ's shared ``vt``); False: one row per vertex
         (a layout about to be replaced by a new one, a lightmap, needs no such reading).
+    base : path, optional
+        A second folder for the file's relative URIs (:func:`load_gltf`).
 
     Returns
     -------
@@ -296,7 +323,7 @@ def read_gltf_layout(path, texcoord=0, *, untextured=False, weld=True):
     NeuralUVError
         Not glTF 2.0, or no primitive has that UV set.
     """
-    doc = load_gltf(path)
+    doc = load_gltf(path, base)
     world = _world_matrices(doc)
     Vs, Fs, Us, blocks, skipped, untextured_faces = [], [], [], [], [], []
     rows = faces = 0
@@ -374,4 +401,4 @@ def image_bytes(doc, i):
         bv = doc.json["bufferViews"][im["bufferView"]]
         start = bv.get("byteOffset", 0)
         return bytes(doc.buffers[bv["buffer"]][start:start + bv["byteLength"]])
-    return bytes(_external(doc.path, {"uri": im.get("uri", "")}))
+    return bytes(_external(doc.path, {"uri": im.get("uri", "")}, doc.folders()))

@@ -1,8 +1,9 @@
-"""Write a GLB copy of a glTF layout's file that differs only in its UV set (or in an added one).
+"""Write a copy of a glTF layout's file that differs only in its UV set (or in an added one).
 
-:func:`write_gltf_uvs` writes the binary glTF (GLB) back: every byte of the
-input — nodes, transforms, normals, materials, images, skins, other UV sets,
-extensions — is kept. Under ``mode="replace"`` only the changed rows of the
+:func:`write_gltf_uvs` writes the document back, as a binary glTF (``.glb``) or
+as glTF JSON with its buffers in ``.bin`` files beside it (``.gltf``,
+:func:`write_gltf`): every byte of the input's data — nodes, transforms,
+normals, materials, images, skins, other UV sets, extensions — is kept. Under ``mode="replace"`` only the changed rows of the
 UV accessors are overwritten in place (float accessors; a normalized integer
 accessor is replaced by a float one), in the set's stored space (a
 ``KHR_texture_transform`` the layout was read through is undone). Under
@@ -15,22 +16,34 @@ vertices in new accessors (the values are copied, not changed). Primitives
 that read the same data (:meth:`~neuraluv.io.gltf.GltfLayout.primitives`) are
 written together.
 
-Nothing here changes a file's meaning beyond the UVs: it is the GLB
-counterpart of :func:`~neuraluv.io.obj.patch_obj`.
+Nothing here changes a file's meaning beyond the UVs: it is the glTF
+counterpart of :func:`~neuraluv.io.obj.patch_obj`. A ``.gltf`` output refers to
+the input's unchanged external files (buffers, images) where they are, by
+relative URIs from its own folder; only changed buffers are written anew. A
+``.glb`` output of a ``.gltf`` input holds its buffers and images inside.
 """
 from __future__ import annotations
 
+import copy
 import json
+import os
 import struct
+from pathlib import Path
+from urllib.parse import quote, unquote
 
 import numpy as np
 
 from neuraluv.errors import NeuralUVError
 from neuraluv.io.files import atomic_write
-from neuraluv.io.gltf import CHUNK_BIN, CHUNK_JSON, COMPONENT_DTYPE, GLB_MAGIC, GltfDoc, load_gltf, read_accessor
+from neuraluv.io.gltf import (CHUNK_BIN, CHUNK_JSON, COMPONENT_DTYPE, GLB_MAGIC, GltfDoc, external_file, image_bytes,
+                              load_gltf, read_accessor)
 from neuraluv.io.gltf_extensions import transform_map
 
-__all__ = ["write_gltf_uvs", "write_glb", "replace_images", "new_accessor"]
+__all__ = ["write_gltf_uvs", "write_gltf", "write_glb", "replace_images", "new_accessor"]
+
+#: Image MIME types by file ending (glTF core and the image extensions), for images moved into a GLB.
+IMAGE_MIME = {".png": "image/png", ".jpg": "image/jpeg", ".jpeg": "image/jpeg", ".webp": "image/webp",
+              ".ktx2": "image/ktx2"}
 
 
 def _append(doc, data, *, target=None, stride=None):
@@ -86,8 +99,8 @@ def _float_uv(uv):
     return np.c_[uv[:, 0], 1.0 - uv[:, 1]].astype("<f4")
 
 
-def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
-    """Write a GLB copy of ``layout``'s file with a new layout, changing nothing else.
+def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace", base=None):
+    """Write a copy of ``layout``'s file with a new layout, changing nothing else.
 
     Parameters
     ----------
@@ -97,13 +110,15 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
         The layout's rows first (rows equal bit for bit to ``layout.UV`` are not written), then new rows.
     FUV : (m,3) int array
         Per-triangle rows, one row of faces per face of ``layout.F``.
-    dst : path of the ``.glb`` to write (atomically).
+    dst : path of the ``.glb`` or ``.gltf`` to write (atomically; :func:`write_gltf`).
     mode : {"replace", "add"}
         ``replace``: the UV set that was read gets the new values. ``add``: a new UV set
         ``TEXCOORD_k``, one ``k`` for every primitive written (the first set free on all of them, so that a
         baker reading one set index finds the whole layout); the sets already there stay as they are. A
         primitive with fewer sets gets its missing lower sets as the same accessor (glTF wants set indices
         continuous from 0), listed in ``filled``.
+    base : path, optional
+        The folder the file ends up in, when ``dst`` is written into a staging folder (:func:`write_gltf`).
 
     Returns
     -------
@@ -111,18 +126,13 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
     (primitives whose vertices had to be split, their attributes copied to new accessors), ``filled``
     (``(mesh, primitive, [set, ...])`` for each primitive whose lower sets were filled with the new layout).
     """
-    import copy
-
     if mode == "replace" and not isinstance(layout.texcoord, int):
         raise NeuralUVError("replacing a UV set needs a layout read with one set index (add a set instead)")
     doc = layout.doc
     doc = GltfDoc(doc.path, copy.deepcopy(doc.json), [bytearray(b) for b in doc.buffers], doc.glb,
-               doc.json_chunk)
+                  doc.json_chunk, doc.base)
     original = copy.deepcopy(doc.json)
-    size0 = len(doc.buffers[0])
-    if not doc.glb or len(doc.buffers) > 1 or any("uri" in b for b in doc.json.get("buffers", [])):
-        raise NeuralUVError("writing back needs a GLB with its one buffer inside (external or several buffers: "
-                            "convert it to GLB first)")
+    sizes = [len(b) for b in doc.buffers]
     if not doc.buffers:
         doc.buffers.append(bytearray())
         doc.json["buffers"] = [{"byteLength": 0}]
@@ -150,9 +160,10 @@ def write_gltf_uvs(layout, UV, FUV, dst, *, mode="replace"):
         for mi, pi in layout.primitives(b):
             _write_block(doc, b, doc.json["meshes"][mi]["primitives"][pi], layout, UV, FUV, mode, put, info, shared)
     _clear_left_behind(doc, {b["uv_accessor"] for b in layout.blocks} - {None})
-    if len(doc.buffers[0]) != size0:  # data appended (the chunk read may hold padding beyond byteLength)
-        doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
-    write_glb(doc, dst, keep_json=doc.json == original)
+    for i, n in enumerate(sizes):
+        if len(doc.buffers[i]) != n:  # data appended (the chunk read may hold padding beyond byteLength)
+            doc.json["buffers"][i]["byteLength"] = len(doc.buffers[i])
+    write_gltf(doc, dst, keep_json=doc.json == original, base=base)
     return info
 
 
@@ -351,6 +362,154 @@ def _free_set(prim):
     return k
 
 
+def write_gltf(doc, dst, *, keep_json=False, base=None, update=False):
+    """Write ``doc`` in the format ``dst`` ends in: ``.glb`` or ``.gltf``.
+
+    ``.glb``: one binary chunk; a document read from a ``.gltf`` (or with several or external buffers) has its
+    buffers joined into it (each bufferView moved with its buffer) and, read from a ``.gltf``, its images
+    stored inside.
+    ``.gltf``: the JSON, with each buffer that differs from the file it was read from (or that was a GLB's
+    binary chunk) written as ``<stem>.bin`` (``<stem>_<i>.bin``) beside it, a changed data URI re-encoded,
+    and every other relative URI (unchanged buffers, images) pointing from ``base`` at the file it names.
+
+    Parameters
+    ----------
+    doc : GltfDoc
+    dst : path
+    keep_json : bool
+        The JSON did not change: its bytes as read are written where the format and the URIs allow.
+    base : path, optional
+        The folder the file ends up in (default: ``dst``'s), when ``dst`` is written into a staging folder
+        first: relative URIs must resolve from there.
+    update : bool
+        ``dst`` is the file ``doc`` was read from, being updated: a changed buffer held in a file beside it
+        (its own ``.bin``) is rewritten under its name; otherwise a changed buffer never replaces a file the
+        document refers to.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> doc = GltfDoc(d / "a.glb", {"asset": {"version": "2.0"}, "buffers": [{"byteLength": 4}]}, [bytearray(4)], True)
+    >>> write_gltf(doc, d / "b.gltf")
+    >>> sorted(p.name for p in d.iterdir()), load_gltf(d / "b.gltf").json["buffers"]
+    (['b.bin', 'b.gltf'], [{'byteLength': 4, 'uri': 'b.bin'}])
+    >>> write_gltf(load_gltf(d / "b.gltf"), d / "c.glb")
+    >>> load_gltf(d / "c.glb").buffers == [bytearray(4)]
+    True
+    """
+    dst = Path(dst)
+    base = Path(base) if base is not None else dst.parent
+    if dst.suffix.lower() == ".gltf":
+        return _write_json_gltf(doc, dst, keep_json, base, update)
+    if not doc.glb or len(doc.buffers) > 1 or any("uri" in b for b in doc.json.get("buffers", [])):
+        doc, keep_json = _inside(doc, base), False
+    elif any("uri" in im for im in doc.json.get("images", [])):  # a GLB's own image references: re-pointed
+        js = copy.deepcopy(doc.json)
+        for im in js["images"]:
+            if "uri" in im:
+                im["uri"] = _relocated(im["uri"], doc, base)
+        if js != doc.json:
+            doc, keep_json = GltfDoc(doc.path, js, doc.buffers, True, b"", doc.base), False
+    write_glb(doc, dst, keep_json)
+
+
+def _relocated(uri, doc, base):
+    """A relative file ``uri`` of ``doc`` pointed from ``base`` at the file it names (the same string when it
+    resolves there already; data and absolute URIs as they are)."""
+    if uri.startswith("data:") or "://" in uri or uri.startswith("/"):
+        return uri
+    try:
+        p = external_file(uri, doc.folders())
+    except FileNotFoundError:  # missing already: left as broken as it was, from the new folder
+        p = doc.path.parent / unquote(uri)
+    if (base / unquote(uri)).resolve() == p.resolve():
+        return uri
+    try:
+        return quote(Path(os.path.relpath(p.resolve(), base.resolve())).as_posix())
+    except ValueError:  # another drive: an absolute file URI
+        return p.resolve().as_uri()
+
+
+def _inside(doc, base):
+    """``doc`` with its buffers joined into buffer 0 and its images stored in it (a GLB's one binary chunk)."""
+    out = GltfDoc(doc.path, copy.deepcopy(doc.json), [bytearray()], True, b"", doc.base)
+    buf, starts = out.buffers[0], []
+    for b in doc.buffers:
+        buf.extend(b"\0" * ((-len(buf)) % 16))   # every bufferView keeps its alignment
+        starts.append(len(buf))
+        buf.extend(b)
+    for bv in out.json.get("bufferViews", []):
+        bv["byteOffset"] = bv.get("byteOffset", 0) + starts[bv.get("buffer", 0)]
+        bv["buffer"] = 0
+    for i, im in enumerate(out.json.get("images", [])):
+        uri = im.get("uri")
+        if uri is None:
+            continue
+        if doc.glb:  # a GLB's references to images beside it stay references
+            im["uri"] = _relocated(uri, doc, base)
+            continue
+        try:
+            data = image_bytes(doc, i)
+        except (NeuralUVError, OSError, ValueError):  # an image missing beside a .gltf stays a reference to it
+            im["uri"] = _relocated(uri, doc, base)
+            continue
+        mime = im.get("mimeType") or (uri[5:].split(";", 1)[0] if uri.startswith("data:") else
+                                      IMAGE_MIME.get(Path(unquote(uri)).suffix.lower(), "image/png"))
+        del im["uri"]
+        im["bufferView"], im["mimeType"] = _append(out, data), mime
+    out.json["buffers"] = [{"byteLength": len(buf)}] if len(buf) or doc.json.get("buffers") else []
+    return out
+
+
+def _write_json_gltf(doc, dst, keep_json, base, update):
+    import base64
+
+    js = copy.deepcopy(doc.json)
+    taken = {doc.path.resolve()}  # the files the document was read from: a new .bin never replaces one
+    for x in js.get("buffers", []) + js.get("images", []):
+        try:
+            p = external_file(x.get("uri", "data:"), doc.folders())
+        except FileNotFoundError:
+            continue
+        if p is not None:
+            taken.add(p.resolve())
+    for i, b in enumerate(js.get("buffers", [])):
+        data, uri = bytes(doc.buffers[i]), b.get("uri")
+        if uri is not None and uri.startswith("data:"):
+            if base64.b64decode(uri.split(",", 1)[1]) != data:
+                b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")
+            continue
+        own = None
+        if uri is not None:
+            try:
+                own = external_file(uri, doc.folders())
+            except FileNotFoundError:
+                pass
+            if own is not None and own.read_bytes() == data:
+                b["uri"] = _relocated(uri, doc, base)
+                continue
+        if update and own is not None and own.parent.resolve() == dst.parent.resolve():
+            name = own.name  # the file's own .bin, rewritten
+        else:
+            name = f"{dst.stem}.bin" if i == 0 else f"{dst.stem}_{i}.bin"
+            while (base / name).resolve() in taken or (dst.parent / name).resolve() in taken:
+                name = f"{Path(name).stem}_new.bin"
+        taken.add((base / name).resolve())
+        with atomic_write(dst.parent / name, "wb") as fh:
+            fh.write(data)
+        b["uri"] = quote(name)
+    for im in js.get("images", []):
+        if "uri" in im:
+            im["uri"] = _relocated(im["uri"], doc, base)
+    if keep_json and not doc.glb and doc.json_chunk and js == doc.json:
+        body = doc.json_chunk  # the JSON's bytes as read
+    else:
+        body = (json.dumps(js, indent=2, ensure_ascii=False) + "\n").encode("utf-8")
+    with atomic_write(dst, "wb") as fh:
+        fh.write(body)
+
+
 def write_glb(doc, dst, keep_json=False):
     body = doc.json_chunk if keep_json and doc.json_chunk else json.dumps(doc.json, separators=(",", ":")).encode()
     body += b" " * ((-len(body)) % 4)
@@ -362,16 +521,18 @@ def write_glb(doc, dst, keep_json=False):
         fh.write(struct.pack("<III", GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
 
 
-def replace_images(src, dst, images):
-    """Write a GLB copy of ``src`` whose images ``{index: PNG bytes}`` are replaced (appended to the binary
-    chunk; the old data stays, unused); every other byte of the document is kept."""
-    doc = load_gltf(src)
-    if not doc.glb or len(doc.buffers) != 1:
-        raise NeuralUVError("replacing images needs a GLB with its one buffer inside")
+def replace_images(src, dst, images, *, base=None):
+    """Write a copy of ``src`` whose images ``{index: PNG bytes}`` are replaced (appended to buffer 0; the old
+    data stays, unused); every other byte of the document is kept. ``dst`` and ``base`` as :func:`write_gltf`'s
+    (``base`` is also where ``src``'s relative URIs resolve when they are not beside it)."""
+    doc = load_gltf(src, base)
+    if not doc.buffers:
+        doc.buffers.append(bytearray())
+        doc.json["buffers"] = [{"byteLength": 0}]
     for i, data in images.items():
         im = doc.json["images"][i]
         im.pop("uri", None)
         im["bufferView"] = _append(doc, data)
         im["mimeType"] = "image/png"
     doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
-    write_glb(doc, dst)
+    write_gltf(doc, dst, base=base, update=Path(src).resolve() == Path(dst).resolve())

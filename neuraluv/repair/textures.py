@@ -59,7 +59,7 @@ def _measure(res, img0, img1):
     return {"surface": whole, "changed_faces": part}
 
 
-def carry_textures(inp, out, data, res, *, uv_set=0):
+def carry_textures(inp, out, data, res, *, uv_set=0, base=None):
     """Re-bake the images that read the repaired UVs; write them beside / into ``out``; measure the change.
 
     Parameters
@@ -68,6 +68,8 @@ def carry_textures(inp, out, data, res, *, uv_set=0):
     data : the reader's data (:class:`~neuraluv.io.ObjData` with its lines, or :class:`~neuraluv.io.GltfLayout`)
     res : :class:`~neuraluv.repair.repair.RepairResult`
     uv_set : int, the glTF UV set that was repaired
+    base : path, optional
+        The folder a glTF ``out`` written into a staging folder ends up in (its relative URIs resolve there).
 
     Returns
     -------
@@ -80,8 +82,8 @@ def carry_textures(inp, out, data, res, *, uv_set=0):
     inp, out = Path(inp), Path(out)
     if out.suffix.lower() == ".obj" and hasattr(data, "notes"):
         return _carry_obj(inp, out, data, res)
-    if out.suffix.lower() == ".glb" and hasattr(data, "doc"):
-        return _carry_glb(out, data, res, uv_set)
+    if out.suffix.lower() in (".glb", ".gltf") and hasattr(data, "doc"):
+        return _carry_glb(out, data, res, uv_set, base)
     return []
 
 
@@ -133,12 +135,12 @@ def _carry_obj(inp, out, data, res):
     return report
 
 
-def _carry_glb(out, data, res, uv_set):
+def _carry_glb(out, data, res, uv_set, base=None):
     from neuraluv.io.gltf import load_gltf
     from neuraluv.io.gltf_extensions import texture_refs, transform_map
     from neuraluv.io.gltf_write import replace_images
 
-    doc = load_gltf(out)
+    doc = load_gltf(out, base)
     # materials whose primitives were read through their textures' shared KHR_texture_transform (the layout
     # is then where those textures sample it already) and the others (each image transformed on its own)
     sampled, mats = set(), set()
@@ -185,5 +187,5 @@ def _carry_glb(out, data, res, uv_set):
                        "texels_written": info["texels_written"], "appearance": app,
                        "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT})
     if new:
-        replace_images(out, out, new)
+        replace_images(out, out, new, base=base)
     return report
