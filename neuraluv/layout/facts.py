@@ -33,11 +33,16 @@ from neuraluv.topology import faces_sharing
 __all__ = ["LayoutFacts", "layout_facts", "uv_islands", "coincident_rows", "face_clusters", "within_rings",
            "texel_density", "island_densities",
            "face_texel_density",
-           "density_spread", "DEGENERATE_3D_AREA", "DEGENERATE_UV", "uv_degenerate", "defect_area", "SURFACE_FACTOR",
-           "holds_more"]
+           "density_spread", "DEGENERATE_3D_AREA", "DEGENERATE_3D_HEIGHT", "no_3d_area", "DEGENERATE_UV",
+           "uv_degenerate", "defect_area", "SURFACE_FACTOR", "holds_more"]
 
 #: Faces of the unit-box mesh with less 3D area than this have no distortion (their UVs are left alone).
 DEGENERATE_3D_AREA = 1e-14
+
+#: Faces of the unit-box mesh thinner than this (twice the area over the longest edge) have no 3D area either:
+#: corners on one line as float32 positions store them (a glTF's, Blender's subdivided n-gons) are ~1e-7 off it,
+#: and their UVs, written as float32 too, have no orientation to keep.
+DEGENERATE_3D_HEIGHT = 1e-6
 
 #: Relative UV area below which a face is UV-degenerate (area / longest UV edge², scale-free).
 DEGENERATE_UV = 1e-12
@@ -445,6 +450,36 @@ class LayoutFacts:
         return self._cache["ignored"]
 
 
+def no_3d_area(Vn, F, areas=None):
+    """Faces of the unit-box mesh without 3D area: at most :data:`DEGENERATE_3D_AREA`, or thinner than
+    :data:`DEGENERATE_3D_HEIGHT` (corners on one line up to float32 rounding).
+
+    Parameters
+    ----------
+    Vn : (n,3) float array, the mesh in its unit box
+    F : (m,3) int array
+    areas : (m,) float array, optional
+        The faces' areas, when already computed.
+
+    Returns
+    -------
+    (m,) bool array
+
+    Examples
+    --------
+    >>> V = np.array([[0., 0, 0], [1, 0, 0], [0.5, 1e-8, 0], [0.5, 0.5, 0]])
+    >>> no_3d_area(V, np.array([[0, 1, 2], [0, 1, 3], [0, 0, 1]])).tolist()
+    [True, False, True]
+    """
+    F = np.asarray(F, np.int64)
+    if not len(F):
+        return np.zeros(0, bool)
+    a3 = face_areas(Vn, F) if areas is None else np.asarray(areas, float)
+    P = np.asarray(Vn, float)[F]
+    longest = np.linalg.norm(P - P[:, [1, 2, 0]], axis=2).max(1)
+    return ~(a3 > DEGENERATE_3D_AREA) | ~(2.0 * a3 > DEGENERATE_3D_HEIGHT * longest)
+
+
 def uv_degenerate(UV, FUV, det, signed_uv=None):
     """(k,) bool: faces ``FUV (k,3)`` collapsed in UV: UV area at most :data:`DEGENERATE_UV` of the longest UV
     edge squared (a point or a line, whatever sign rounding gave det J), or det J (``det (k,)``) zero.
@@ -514,7 +549,7 @@ def layout_facts(V, F, UV, FUV=None, *, normalized=False, min_overlap=0.0):
         det[usable] = face_dets(Vn, F[usable], UV, FUV[usable])
         signed[usable] = signed_areas_2d(UV, FUV[usable])
     a3 = face_areas(Vn, F) if m else np.zeros(0)
-    deg3 = ~(a3 > DEGENERATE_3D_AREA)
+    deg3 = no_3d_area(Vn, F, a3)
     lab_u = label[usable]
     density, mirrored = _density(signed[usable], a3[usable], lab_u, n, count=~deg3[usable])
     return LayoutFacts(Vn=Vn, F=F, UV=UV, FUV=FUV, missing=missing, non_finite=non_finite, label=label, n_islands=int(n),

@@ -30,8 +30,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from neuraluv.layout.facts import DEGENERATE_3D_AREA, face_clusters, texel_density, uv_degenerate
-from neuraluv.meshfix import face_areas, normalize_unit_box
+from neuraluv.layout.facts import face_clusters, no_3d_area, texel_density, uv_degenerate
+from neuraluv.meshfix import normalize_unit_box
 from neuraluv.metrics import corner_jacobians, face_dets, face_metrics
 from neuraluv.repair.region import FAR_QUANTILE, _face_sd, _far_esd, region_esd, region_overlaps
 from neuraluv.repair.untangle import budget_spent, polish, untangle
@@ -276,7 +276,7 @@ def repair_cluster(Vn, F, UV, FUV, graph, cluster, scale, *, config="fast", seed
         """Untangle + polish with ``rows`` free: ``(map or None, details)``."""
         free = np.flatnonzero(rows)
         region = graph.faces_touching(rows)
-        region = region[face_areas(Vn, F[region]) > DEGENERATE_3D_AREA]  # no 3D area: no distortion to untangle
+        region = region[~no_3d_area(Vn, F[region])]  # no 3D area: no distortion to untangle
         sc = local_scale(rows)
         rest = np.setdiff1d(cluster, region)  # cluster faces with no free row: they stay as they are
         if len(rest) and not valid(UV, rest):
@@ -477,7 +477,7 @@ def resolve_as_chart(Vn, F, UV, FUV, faces, density, cfg, *, seed, device, deadl
 
     t0 = time.perf_counter()
     all_rows = np.unique(FUV[faces])
-    faces = faces[face_areas(Vn, F[faces]) > DEGENERATE_3D_AREA]
+    faces = faces[~no_3d_area(Vn, F[faces])]
     pieces, routes, by_vertex = [], [], False
     if len(faces):
         by_vertex = bool((FUV[faces] == FUV[faces][:, [1, 2, 0]]).any())

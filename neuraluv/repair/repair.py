@@ -40,9 +40,8 @@ from neuraluv.atlas.candidates import chart_candidates
 from neuraluv.atlas.routing import fallback_islands, route_charts
 from neuraluv.errors import NeuralUVError
 from neuraluv.io import jsonable
-from neuraluv.layout.facts import DEGENERATE_3D_AREA, coincident_rows, defect_area, layout_facts
+from neuraluv.layout.facts import coincident_rows, defect_area, layout_facts, no_3d_area
 from neuraluv.layout.purpose import check_purpose, layout_intent
-from neuraluv.meshfix import face_areas
 from neuraluv.plot import plot_repair
 from neuraluv.repair.bake import collapsed_faces, own_rows_per_surface, repair_islands
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
@@ -383,7 +382,7 @@ def _new_charts(Vn, F, UV, FUV, lost, density, cfg, *, seed, device, deadline, s
     """
     UV, FUV = np.asarray(UV, float), np.asarray(FUV, np.int64).copy()
     out0 = []
-    for why, flat in (("no 3D area", face_areas(Vn, F[lost]) <= DEGENERATE_3D_AREA),
+    for why, flat in (("no 3D area", no_3d_area(Vn, F[lost])),
                       ("one vt row", (FUV[lost] == FUV[lost][:, :1]).all(1) & (FUV[lost][:, 0] >= 0))):
         if not flat.any():
             continue
