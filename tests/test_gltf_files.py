@@ -184,3 +184,42 @@ def test_an_atlas_is_written_as_gltf(tmp_path, capsys):
     assert (tmp_path / "cap.bin").is_file() and not out.read_bytes().startswith(b"glTF")
     assert read_gltf_layout(out).F.shape == F.shape
     _validate(out)
+
+
+def test_faces_on_a_line_in_float32_take_no_part_in_a_lightmap_s_flips(tmp_path, capsys):
+    # a subdivided n-gon (Blender's cap of a subdivided cylinder): triangles whose corners lie on one line, up to
+    # the float32 rounding of a glTF's positions. Their UVs, written as float32 too, have no orientation to keep:
+    # check, repair and the read-back must agree that they are faces without 3D area, not flips.
+    from neuraluv.layout import facts
+
+    n, k = 24, 6
+    ring = np.c_[np.cos(2 * np.pi * np.arange(n) / n), np.sin(2 * np.pi * np.arange(n) / n), np.zeros(n)] * 0.7
+    V = [np.zeros(3)]
+    F = []
+    for i in range(n):  # each rim edge cut in k: a fan of k triangles to the centre, and k-1 flat ones on the rim
+        a, b = ring[i], ring[(i + 1) % n]
+        idx = []
+        for j in range(k + 1):
+            if j == k and i == n - 1:
+                idx.append(1)
+                continue
+            if j == 0 and i > 0:
+                idx.append(last)
+                continue
+            V.append(a + (b - a) * j / k)
+            idx.append(len(V) - 1)
+        last = idx[-1]
+        F += [[0, idx[j], idx[j + 1]] for j in range(k)]
+        F += [[idx[0], idx[j], idx[j + 1]] for j in range(1, k)]  # corners on the rim edge: on one line
+    V, F = np.asarray(V, np.float32).astype(float), np.asarray(F)
+    UV = V[:, :2] * 0.5 + 0.5
+    src = _glb(tmp_path, UV, V, F)
+    flat = facts.layout_facts(V, F, UV, F).degenerate3d
+    assert flat.sum() == n * (k - 1)  # every face on a rim edge, whatever float32 did to its corners
+    # (before: 4 of them; the lightmap read back with 48 flips, exit 3)
+    out = tmp_path / "lm.glb"
+    assert main(["repair", str(src), "-o", str(out), "--purpose", "lightmap", *RUN, "--resolution", "256",
+                 "--padding", "2", "--report", str(tmp_path / "r.json")]) == 0, capsys.readouterr()
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["readback"]["valid"] and r["readback"]["flips"] == 0 and r["readback"]["zero_area_faces"] == n * (k - 1)
+    _validate(out)
