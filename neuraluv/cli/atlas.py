@@ -162,7 +162,8 @@ def _print_textures(textures):
             print(f"  texture {t['image']}: not re-baked, {t['skipped']}")
         else:
             a, c = t["appearance"]["surface"], t["appearance"]["changed_faces"]
-            print(f"  re-baked {t['image']} -> {Path(t['written']).name}: colour change over the surface mean "
+            print(f"  re-baked {t['image']}{' (a normal map: its vectors turned with each face)' if t.get('normal_map') else ''}"
+                  f" -> {Path(t['written']).name}: colour change over the surface mean "
                   f"{a['mean']:.3f}, p99 {a['p99']:.2f}; over the changed faces mean {c['mean']:.2f}, p99 "
                   f"{c['p99']:.1f} (8-bit RGB distance, {a['samples']:,} samples each)"
                   + ("" if t["ok"] else " — above the 1-level mean we hold a re-bake to: inspect it"))

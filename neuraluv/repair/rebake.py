@@ -17,10 +17,14 @@ resampled, which softens sharp edges (an island of a 200-level checker moved by 
 texels: mean 1.5, p99 37 over the whole two-island surface; a smooth texture: mean 0.2,
 p99 0.5 — ``tests/test_purpose.py``).
 
-Normal maps are re-baked like colour maps: each texel keeps its stored vector. That is
-exact where a face only moved; where the repair rotated a face in UV, a tangent-space
-normal turns with it by that angle (local fold repair moves faces a little; a
-re-solved island is rigidly fitted back to where it was).
+A tangent-space **normal map** (``normal_map=True``) stores vectors in the frame of the
+layout (+X along +u, +Y along +v, +Z off the surface, as glTF and MikkTSpace have it):
+where the new layout turns or mirrors a face (an atlas's quarter turns, a repacked
+island), the stored vector must turn with it or the surface is lit from another side.
+Each changed face's texels get the vector's X and Y turned by the orthogonal part of
+the face's old-to-new UV map (:func:`uv_turns`: the polar factor, a rotation or a
+reflection); Z is kept. :func:`appearance_change` compares such maps in the old frame
+(``turn``), so a correct re-bake measures as no change.
 """
 from __future__ import annotations
 
@@ -28,7 +32,7 @@ import numpy as np
 
 from neuraluv.layout.overlap import points_in_triangles
 
-__all__ = ["sample_image", "rebake_image", "appearance_change", "BLEED"]
+__all__ = ["sample_image", "rebake_image", "appearance_change", "uv_turns", "BLEED"]
 
 #: Texels outside a changed face, up to this distance, are drawn too (from the face's nearest point) unless a
 #: face uses them: bilinear lookups at a face's edge read them.
@@ -76,7 +80,47 @@ def _bary(P, tri):
     return np.c_[1 - l1 - l2, l1, l2]
 
 
-def rebake_image(image, UV0, FUV0, UV1, FUV1, changed):
+def uv_turns(UV0, FUV0, UV1, FUV1):
+    """Per face, the orthogonal part of its map from the old UV triangle to the new one: ``(m,2,2)``.
+
+    The polar factor ``R = U Vᵀ`` of the linear part ``A`` (``A = U S Vᵀ``): a rotation, or a reflection
+    where the face was mirrored; the identity where either triangle has no area or non-finite UVs.
+
+    Examples
+    --------
+    >>> UV0 = np.array([[0., 0], [1, 0], [0, 1]]); F = np.array([[0, 1, 2]])
+    >>> np.round(uv_turns(UV0, F, 2 * UV0 @ np.array([[0., 1], [-1, 0]]), F)[0], 6).tolist()   # turned 90°
+    [[0.0, -1.0], [1.0, 0.0]]
+    """
+    def edges(UV, FUV):
+        T = np.asarray(UV, float)[np.asarray(FUV, np.int64)]
+        return np.stack([T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]], axis=2)   # (m,2,2): the edges as columns
+
+    E0, E1 = edges(UV0, FUV0), edges(UV1, FUV1)
+    R = np.tile(np.eye(2), (len(E0), 1, 1))
+    d0, d1 = np.linalg.det(E0), np.linalg.det(E1)
+    ok = np.isfinite(E0).all((1, 2)) & np.isfinite(E1).all((1, 2)) & (np.abs(d0) > 0) & (np.abs(d1) > 0)
+    if ok.any():
+        A = E1[ok] @ np.linalg.inv(E0[ok])
+        U, _, Vt = np.linalg.svd(A)
+        R[ok] = U @ Vt
+    return R
+
+
+def _turned(col, R, top):
+    """Tangent-space normals ``col`` (k,C) stored in [0, top] with X, Y turned by ``R`` (2,2)."""
+    col = np.array(col, float)
+    xy = col[:, :2] / top * 2.0 - 1.0
+    col[:, :2] = (xy @ R.T + 1.0) * 0.5 * top
+    return col
+
+
+def _top(img):
+    """The value a channel stores 1.0 as: the integer type's largest, or 1 for float images."""
+    return float(np.iinfo(img.dtype).max) if np.issubdtype(img.dtype, np.integer) else 1.0
+
+
+def rebake_image(image, UV0, FUV0, UV1, FUV1, changed, *, normal_map=False):
     """Redraw ``image`` for the faces ``changed`` from their old UVs to their new ones.
 
     Parameters
@@ -85,6 +129,9 @@ def rebake_image(image, UV0, FUV0, UV1, FUV1, changed):
     UV0, FUV0 : the layout the image was painted for
     UV1, FUV1 : the repaired layout (one row of ``FUV1`` per row of ``FUV0``)
     changed : (m,) bool array, faces whose UVs changed
+    normal_map : bool
+        ``image`` is a tangent-space normal map (RGB = XYZ): each face's vectors turn with the face
+        (:func:`uv_turns`).
 
     Returns
     -------
@@ -142,6 +189,7 @@ def rebake_image(image, UV0, FUV0, UV1, FUV1, changed):
         taken[hit] = True
     k = 0
     UV0 = np.asarray(UV0, float)
+    turns = uv_turns(UV0, FUV0, UV1, FUV1) if normal_map and img.ndim == 3 and img.shape[2] >= 3 else None
     done = np.zeros((H, W), bool)  # a texel two changed faces reach is drawn once (inside before the rim)
     for f, P, b in groups:
         free = ~taken[k:k + len(P)]
@@ -154,6 +202,8 @@ def rebake_image(image, UV0, FUV0, UV1, FUV1, changed):
         xi, yi = xi[free], yi[free]
         done[yi, xi] = True
         col = sample_image(src, b[free] @ UV0[FUV0[f]])
+        if turns is not None:
+            col = _turned(col, turns[f], _top(img))
         val = col if img.ndim == 3 else col[:, 0]
         if np.issubdtype(img.dtype, np.integer):
             val = np.clip(np.rint(val), np.iinfo(img.dtype).min, np.iinfo(img.dtype).max)
@@ -162,13 +212,14 @@ def rebake_image(image, UV0, FUV0, UV1, FUV1, changed):
     return out, {"texels_written": written, "faces": int(len(changed))}
 
 
-def appearance_change(V, F, image0, UV0, FUV0, image1, UV1, FUV1, *, samples=100_000, seed=0):
+def appearance_change(V, F, image0, UV0, FUV0, image1, UV1, FUV1, *, samples=100_000, seed=0, turn=None):
     """Colour difference of the textured surface before and after, at random surface points.
 
     Points are drawn uniformly by 3D area; each is looked up in ``image0`` through the old
     layout and in ``image1`` through the new one (bilinear, repeating). The difference is
     the Euclidean distance over the channels in 8-bit units (images in [0,1] floats are
-    scaled by 255).
+    scaled by 255). With ``turn`` ((m,2,2), per face of ``F``: :func:`uv_turns`), the images are
+    tangent-space normal maps and ``image1``'s vectors are turned back into the old frame first.
 
     Returns
     -------
@@ -199,6 +250,11 @@ def appearance_change(V, F, image0, UV0, FUV0, image1, UV1, FUV1, *, samples=100
     if not ok.any():
         return {"mean": 0.0, "p99": 0.0, "max": 0.0, "share_changed": 0.0, "samples": 0, "unit": "8-bit RGB"}
     c0, c1 = sample_image(image0, u0[ok]), sample_image(image1, u1[ok])
+    if turn is not None and c1.shape[1] >= 3:  # the new vectors in the old frame: R⁻¹ = Rᵀ, per sample's face
+        top = _top(np.asarray(image1))
+        xy = c1[:, :2] / top * 2.0 - 1.0
+        c1 = c1.copy()
+        c1[:, :2] = (np.einsum("kij,ki->kj", np.asarray(turn)[f[ok]], xy) + 1.0) * 0.5 * top
     scale = 255.0 if not np.issubdtype(np.asarray(image0).dtype, np.integer) and float(np.max(image0)) <= 1.0 else 1.0
     d = np.linalg.norm((c1 - c0) * scale, axis=1)
     return {"mean": float(d.mean()), "p99": float(np.percentile(d, 99)), "max": float(d.max()),

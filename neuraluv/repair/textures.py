@@ -5,7 +5,11 @@ material maps (``map_Kd``, ``map_Ks``, ``map_Bump``, …, in the ``mtllib`` file
 it), a glTF's base colour, metallic-roughness, normal, occlusion and emissive textures
 of the repaired primitives' materials on that UV set — re-bakes each from the old
 layout to the new one (:func:`~neuraluv.repair.rebake.rebake_image`), writes them, and
-measures the appearance change (:func:`~neuraluv.repair.rebake.appearance_change`). A glTF
+measures the appearance change (:func:`~neuraluv.repair.rebake.appearance_change`).
+Normal maps (a glTF material's ``normalTexture``; an OBJ's ``norm`` map, and a ``bump``
+map that looks like one rather than a grey height map) are re-baked with their vectors
+turned with each face (and compared in the old frame); the report marks them
+``normal_map``. A glTF primitive's ``TANGENT`` attribute is not recomputed. A glTF
 texture sampled through ``KHR_texture_transform`` is re-baked where it is sampled (the
 transform applied to both layouts); one image sampled through two transforms is skipped, and
 said so.
@@ -25,9 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from neuraluv.io import atomic_write, obj_material_maps
-from neuraluv.repair.rebake import appearance_change, rebake_image
+from neuraluv.repair.rebake import appearance_change, rebake_image, uv_turns
 
-__all__ = ["carry_textures", "APPEARANCE_LIMIT"]
+__all__ = ["carry_textures", "looks_like_normal_map", "APPEARANCE_LIMIT"]
+
+#: OBJ material keys of normal maps (``norm``) and of maps that hold one or a height map (``bump``): the latter
+#: are re-baked as normal maps when they look like one (:func:`looks_like_normal_map`).
+NORMAL_KEYS, BUMP_KEYS = (b"norm",), (b"map_bump", b"bump")
 
 #: The appearance change a re-bake is held to: mean colour difference over the whole textured surface, in
 #: 8-bit RGB units (one level of 255 is below what a viewer can see). The figures over the changed faces
@@ -51,12 +59,31 @@ def _png(arr):
     return buf.getvalue()
 
 
-def _measure(res, img0, img1):
+def _measure(res, img0, img1, normal_map=False):
     ch = res.changed_faces
-    whole = appearance_change(res.V, res.F, img0, res.UV_in, res.FUV_in, img1, res.UV, res.FUV)
-    part = appearance_change(res.V, res.F[ch], img0, res.UV_in, res.FUV_in[ch], img1, res.UV, res.FUV[ch]) \
-        if ch.any() else whole
+    turn = uv_turns(res.UV_in, res.FUV_in, res.UV, res.FUV) if normal_map else None
+    whole = appearance_change(res.V, res.F, img0, res.UV_in, res.FUV_in, img1, res.UV, res.FUV, turn=turn)
+    part = appearance_change(res.V, res.F[ch], img0, res.UV_in, res.FUV_in[ch], img1, res.UV, res.FUV[ch],
+                             turn=None if turn is None else turn[ch]) if ch.any() else whole
     return {"surface": whole, "changed_faces": part}
+
+
+def looks_like_normal_map(img):
+    """An image that reads as a tangent-space normal map: RGB, blue high (Z off the surface) and red and green
+    about mid-range on average, and not grey (a height map under ``bump`` is grey).
+
+    Examples
+    --------
+    >>> flat = np.zeros((4, 4, 3), np.uint8) + np.array([128, 128, 255], np.uint8)
+    >>> looks_like_normal_map(flat), looks_like_normal_map(np.full((4, 4, 3), 200, np.uint8))
+    (True, False)
+    """
+    img = np.asarray(img)
+    if img.ndim != 3 or img.shape[2] < 3:
+        return False
+    top = float(np.iinfo(img.dtype).max) if np.issubdtype(img.dtype, np.integer) else 1.0
+    r, g, b = (img[..., c].astype(float).mean() / top for c in range(3))
+    return bool(b > 0.7 and abs(r - 0.5) < 0.15 and abs(g - 0.5) < 0.15)
 
 
 def carry_textures(inp, out, data, res, *, uv_set=0, base=None):
@@ -105,14 +132,17 @@ def _carry_obj(inp, out, data, res):
                     report.append({"image": name, "skipped": f"could not read ({type(exc).__name__})"})
                     baked[name] = None
                     continue
-                img1, info = rebake_image(img0, res.UV_in, res.FUV_in, res.UV, res.FUV, res.changed_faces)
+                normal = key.lower() in NORMAL_KEYS or (key.lower() in BUMP_KEYS and looks_like_normal_map(img0))
+                img1, info = rebake_image(img0, res.UV_in, res.FUV_in, res.UV, res.FUV, res.changed_faces,
+                                          normal_map=normal)
                 dst = out.parent / f"{out.stem}.{Path(name).stem}.png".replace(" ", "_")
                 with atomic_write(dst, "wb") as fh:
                     fh.write(_png(img1))
-                app = _measure(res, img0, img1)
+                app = _measure(res, img0, img1, normal)
                 baked[name] = dst.name
                 report.append({"image": name, "written": str(dst), "texels_written": info["texels_written"],
-                               "appearance": app, "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT})
+                               "appearance": app, "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT,
+                               **({"normal_map": True} if normal else {})})
             if baked.get(name):
                 ending = lines[k][len(lines[k].rstrip(b"\r\n")):]
                 lines[k] = lines[k][: len(lines[k]) - len(lines[k].lstrip())] + key + b" " \
@@ -151,12 +181,14 @@ def _carry_glb(out, data, res, uv_set, base=None):
             if b.get("transform"):
                 sampled.add(m)
     used = {}  # image -> the KHR_texture_transform (JSON) of every reference to it on this UV set
+    normal = {}  # image -> whether it is read as a normal map, per reference
     for m in mats:
         for ti in texture_refs(doc.json, m, uv_set):
             src = doc.json["textures"][ti["index"]].get("source")
             if src is not None:
                 ext = None if m in sampled else (ti.get("extensions") or {}).get("KHR_texture_transform")
                 used.setdefault(src, {})[json.dumps(ext, sort_keys=True)] = ext
+                normal.setdefault(src, set()).add(ti is doc.json["materials"][m].get("normalTexture"))
     report, new = [], {}
     for img_i in sorted(used):
         im = doc.json["images"][img_i]
@@ -164,6 +196,11 @@ def _carry_glb(out, data, res, uv_set, base=None):
             report.append({"image": im.get("name", f"image {img_i}"),
                            "skipped": "sampled through different KHR_texture_transform transforms"})
             continue
+        if len(normal[img_i]) > 1:  # read as normals and as colours: no one re-bake serves both
+            report.append({"image": im.get("name", f"image {img_i}"),
+                           "skipped": "read both as a normal map and as a colour map"})
+            continue
+        is_normal = True in normal[img_i]
         ext = next(iter(used[img_i].values()))  # where the texture is sampled (None: at the UVs as read)
         try:
             from PIL import Image
@@ -180,12 +217,13 @@ def _carry_glb(out, data, res, uv_set, base=None):
         if ext is not None:  # the layouts as sampled (a copy: a RepairResult, or the atlas's namespace)
             view, tf = copy.copy(res), transform_map(ext)
             view.UV_in, view.UV = tf(res.UV_in), tf(res.UV)
-        img1, info = rebake_image(img0, view.UV_in, view.FUV_in, view.UV, view.FUV, view.changed_faces)
+        img1, info = rebake_image(img0, view.UV_in, view.FUV_in, view.UV, view.FUV, view.changed_faces,
+                                  normal_map=is_normal)
         new[img_i] = _png(img1)
-        app = _measure(view, img0, img1)
+        app = _measure(view, img0, img1, is_normal)
         report.append({"image": im.get("name", f"image {img_i}"), "written": f"{out.name} (image {img_i}, PNG)",
                        "texels_written": info["texels_written"], "appearance": app,
-                       "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT})
+                       "ok": app["surface"]["mean"] <= APPEARANCE_LIMIT, **({"normal_map": True} if is_normal else {})})
     if new:
         replace_images(out, out, new, base=base)
     return report
