@@ -79,3 +79,51 @@ def test_an_atlas_replacing_the_uvs_rebakes_a_glb_normal_texture_as_a_normal_map
     tex = json.loads((tmp_path / "r.json").read_text())["textures"]
     assert sorted(bool(t.get("normal_map")) for t in tex) == [False, True]
     assert all("appearance" in t for t in tex)
+
+
+def test_a_repair_recomputes_the_tangents_of_the_vertices_it_moved_and_keeps_the_others(tmp_path, capsys):
+    # a normal-mapped GLB with a fold, its TANGENT rows made from its UVs as they are (as an exporter makes them):
+    # after the repair the moved vertices' tangents follow the repaired UVs (close to the frame of the layout as
+    # intended, unlike the rows made on the fold), the rest keep their bytes
+    import trimesh
+    from PIL import Image
+
+    from neuraluv.cli import main
+    from neuraluv.io.gltf import load_gltf, read_accessor
+    from neuraluv.io.gltf_tangents import vertex_tangents
+    from neuraluv.io.gltf_write import new_accessor, write_gltf
+    from test_purpose import fold_cases
+
+    _, V, F, UV, bad = fold_cases()[0]
+    flat = Image.fromarray(np.zeros((32, 32, 3), np.uint8) + _encode([0.0, 0.0, 1.0]))
+    mesh = trimesh.Trimesh(V, F, process=False, visual=trimesh.visual.TextureVisuals(
+        uv=bad, material=trimesh.visual.material.PBRMaterial(baseColorTexture=flat, normalTexture=flat)))
+    mesh.vertex_normals  # noqa: B018 - computed, so the GLB carries NORMAL
+    glb = tmp_path / "t.glb"
+    glb.write_bytes(trimesh.Scene(mesh).export(file_type="glb", include_normals=True))
+    doc = load_gltf(glb)
+    prim = doc.json["meshes"][0]["primitives"][0]
+    P, N = read_accessor(doc, prim["attributes"]["POSITION"]), read_accessor(doc, prim["attributes"]["NORMAL"])
+    order = np.argsort(np.linalg.norm(P[:, None] - V[None], axis=2).argmin(1))   # trimesh keeps the vertex order
+    assert np.array_equal(order, np.arange(len(V)))
+    T0 = vertex_tangents(P, N, UV, F)   # the frame of the layout as intended (UV v up, as read)
+    prim["attributes"]["TANGENT"] = new_accessor(doc, vertex_tangents(P, N, bad, F))
+    doc.json["buffers"][0]["byteLength"] = len(doc.buffers[0])
+    src = tmp_path / "src.glb"
+    write_gltf(doc, src)
+    out = tmp_path / "out.glb"
+    assert main(["repair", str(src), "-o", str(out), "--preset", "test", "--device", "cpu", "--no-rebake",
+                 "--report", str(tmp_path / "r.json")]) == 0, capsys.readouterr()
+    assert "TANGENT recomputed" in capsys.readouterr().out
+    a, b = load_gltf(src), load_gltf(out)
+    pa, pb = a.json["meshes"][0]["primitives"][0], b.json["meshes"][0]["primitives"][0]
+    ua, ub = (read_accessor(d, p["attributes"]["TEXCOORD_0"]) for d, p in ((a, pa), (b, pb)))
+    ta, tb = (read_accessor(d, p["attributes"]["TANGENT"]).astype(float) for d, p in ((a, pa), (b, pb)))
+    moved = (ua != ub).any(1)
+    assert moved.any() and np.array_equal(ta[~moved], tb[~moved])
+    assert json.loads((tmp_path / "r.json").read_text())["written"]["tangents"] == int(moved.sum())
+    cos = (tb[moved, :3] * T0[moved, :3]).sum(1)
+    stale = (ta[moved, :3] * T0[moved, :3]).sum(1)   # the same rows as made on the fold
+    assert np.allclose(np.linalg.norm(tb[:, :3], axis=1), 1, atol=1e-5) and set(tb[:, 3]) <= {-1.0, 1.0}
+    assert np.median(stale) < 0.5   # made on the fold: far off (median cosine 0.03)
+    assert np.median(cos) > 0.95 and np.array_equal(tb[moved, 3], T0[moved, 3]), (np.median(cos), np.median(stale))

@@ -320,6 +320,8 @@ def cmd_repair(args):
                  if add else "")
               + (f"; {written['primitives_split']} primitive(s) had vertices split (attributes copied)"
                  if written["primitives_split"] else "")
+              + (f"; TANGENT recomputed on the {written['tangents']} moved vertices (the normal map's frame)"
+                 if written.get("tangents") else "")
               + (f"; {len(written['filled'])} primitive(s) without the lower UV sets (faces without texture "
                  "coordinates, given charts) got the new layout there too (glTF numbers UV sets from 0)"
                  if written.get("filled") else ""))

@@ -203,16 +203,19 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
                         acc["min"], acc["max"] = vals.min(0).tolist(), vals.max(0).tolist()
                     shared["in place"] = True
                 info["texcoord"].append(layout.texcoord)
+                _tangents(doc, b, prim, layout, np.flatnonzero(changed), info, shared)
                 return
             if "in place" in shared or _requantized(doc, acc_i, UV, vrow, changed, local, b.get("transform")):
                 shared["in place"] = True  # a 16-bit quantized set: the changed rows on its grid, the rest as they were
                 info["texcoord"].append(layout.texcoord)
+                _tangents(doc, b, prim, layout, np.flatnonzero(changed), info, shared)
                 return
             # a normalized 8-bit (or odd) accessor, a grid the repair does not fit, or none (read untextured): a float
             # accessor in its place
             if "uv" not in shared:
                 shared["uv"] = new_accessor(doc, _float_uv(stored(UV[vrow])))
             put(b, prim, shared["uv"], layout.texcoord)
+            _tangents(doc, b, prim, layout, np.flatnonzero(changed), info, shared)
             return
         if "uv" not in shared:
             shared["uv"] = new_accessor(doc, _float_uv(UV[vrow]))
@@ -236,12 +239,12 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
             if ai not in gathered:
                 gathered[ai] = new_accessor(doc, read_accessor(doc, ai, raw=True)[src_v], like=ai)
             t[name] = gathered[ai]
+    values = UV[uniq[:, 1]]
+    moved = (np.ascontiguousarray(values).view(np.int64)
+             != np.ascontiguousarray(layout.UV[r0 + src_v]).view(np.int64)).any(1)
     if "split uv" not in shared:
         tri = inv.reshape(-1).astype(np.uint32 if len(uniq) > 65535 else np.uint16)
         acc_i = b["uv_accessor"] if mode == "replace" else None
-        values = UV[uniq[:, 1]]
-        moved = (np.ascontiguousarray(values).view(np.int64)
-                 != np.ascontiguousarray(layout.UV[r0 + src_v]).view(np.int64)).any(1)
         q = _on_grid(doc, acc_i, values, moved, tri.reshape(-1, 3).astype(np.int64), src_v,
                      b.get("transform"))  # a quantized set stays quantized, its unmoved vertices' integers copied
         shared["split uv"] = new_accessor(doc, q, like=acc_i) if q is not None else \
@@ -250,6 +253,26 @@ def _write_block(doc, b, prim, layout, UV, FUV, mode, put, info, shared):
     put(b, prim, shared["split uv"], layout.texcoord if mode == "replace" else None)
     prim["indices"] = shared["indices"]
     prim["mode"] = 4
+    if mode == "replace":
+        _tangents(doc, b, prim, layout, np.flatnonzero(moved), info, shared)
+
+
+def _tangents(doc, b, prim, layout, verts, info, shared):
+    """The ``TANGENT`` rows of the moved vertices recomputed (:func:`~neuraluv.io.gltf_tangents.retangent`),
+    once per tangent accessor; counted in ``info["tangents"]`` (``info["tangents_kept"]``: primitives whose
+    quantized tangents could not be rewritten)."""
+    from neuraluv.io.gltf_tangents import retangent
+
+    ti = prim["attributes"].get("TANGENT")
+    if ti is None or ("tangent", ti) in shared:
+        return
+    shared[("tangent", ti)] = True
+    before = (layout.doc, layout.doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]])
+    n = retangent(doc, prim, verts, layout.texcoord, before)
+    if n is None:
+        info.setdefault("tangents_kept", []).append((b["mesh"], b["primitive"]))
+    else:
+        info["tangents"] = info.get("tangents", 0) + n
 
 
 def _on_grid(doc, acc_i, values, changed, faces, src, transform):

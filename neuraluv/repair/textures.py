@@ -9,7 +9,8 @@ measures the appearance change (:func:`~neuraluv.repair.rebake.appearance_change
 Normal maps (a glTF material's ``normalTexture``; an OBJ's ``norm`` map, and a ``bump``
 map that looks like one rather than a grey height map) are re-baked with their vectors
 turned with each face (and compared in the old frame); the report marks them
-``normal_map``. A glTF primitive's ``TANGENT`` attribute is not recomputed. A glTF
+``normal_map``. A glTF primitive's ``TANGENT`` rows of the moved vertices are recomputed
+from the new UVs when it is written (:mod:`neuraluv.io.gltf_tangents`). A glTF
 texture sampled through ``KHR_texture_transform`` is re-baked where it is sampled (the
 transform applied to both layouts); one image sampled through two transforms is skipped, and
 said so.
