@@ -127,3 +127,32 @@ def test_a_repair_recomputes_the_tangents_of_the_vertices_it_moved_and_keeps_the
     assert np.allclose(np.linalg.norm(tb[:, :3], axis=1), 1, atol=1e-5) and set(tb[:, 3]) <= {-1.0, 1.0}
     assert np.median(stale) < 0.5   # made on the fold: far off (median cosine 0.03)
     assert np.median(cos) > 0.95 and np.array_equal(tb[moved, 3], T0[moved, 3]), (np.median(cos), np.median(stale))
+
+
+def test_a_bake_repair_of_an_obj_carries_its_textures_and_turns_its_normal_map(tmp_path, capsys):
+    # under --purpose bake the OBJ's one vt set is replaced by a unique layout: the maps its material reads are
+    # re-baked onto it as under texture (before, only texture repairs re-baked: the output's material still
+    # pointed at images painted for the old layout)
+    from PIL import Image
+
+    from conftest import write_layout
+    from neuraluv.cli import main
+    from test_purpose import intent_layouts
+
+    V, F, UV, FUV, _ = intent_layouts()["mirrored copy"]
+    src = tmp_path / "m.obj"
+    write_layout(src, V, F, UV, FUV)
+    src.write_text("mtllib m.mtl\nusemtl skin\n" + src.read_text())
+    (tmp_path / "m.mtl").write_text("newmtl skin\nmap_Kd col.png\nmap_Bump nrm.png\n")
+    yy, xx = np.mgrid[0:128, 0:128] / 128.0
+    Image.fromarray(np.stack([255 * xx, 255 * yy, 0 * xx + 60], -1).astype(np.uint8)).save(tmp_path / "col.png")
+    n = np.stack([0.4 * np.sin(9 * xx), 0.4 * np.cos(7 * yy), np.ones_like(xx)], -1)
+    Image.fromarray(_encode(n / np.linalg.norm(n, axis=2, keepdims=True))).save(tmp_path / "nrm.png")
+    out = tmp_path / "out.obj"
+    assert main(["repair", str(src), "-o", str(out), "--purpose", "bake", "--preset", "test", "--device", "cpu",
+                 "--resolution", "256", "--padding", "2", "--report", str(tmp_path / "r.json")]) == 0, \
+        capsys.readouterr()
+    tex = json.loads((tmp_path / "r.json").read_text())["textures"]
+    assert [(t["image"], bool(t.get("normal_map"))) for t in tex] == [("col.png", False), ("nrm.png", True)]
+    assert (tmp_path / "out.mtl").read_text() == "newmtl skin\nmap_Kd out.col.png\nmap_Bump out.nrm.png\n"
+    assert all(t["ok"] for t in tex)   # mean colour change over the surface within 1 level (0.82 and 0.42 here)

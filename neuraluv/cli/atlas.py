@@ -277,7 +277,7 @@ def cmd_repair(args):
             written = {"format": out.suffix.lower()}
         textures = []
         kept_asset = patchable or (data is not None and not gltf and out.suffix.lower() == ".obj")
-        if purpose == "texture" and not res.unchanged and not args.no_rebake and not add and kept_asset:
+        if not res.unchanged and not args.no_rebake and not add and kept_asset:  # the set the textures read changed
             from neuraluv.repair.textures import carry_textures
 
             textures = carry_textures(inp, tmp, data, res, uv_set=args.uv_set, base=out.parent)
