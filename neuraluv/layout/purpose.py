@@ -47,7 +47,10 @@ Definitions (on the unit-box mesh):
   places in 3D (a mirror modifier's halves, an array's copies), each copy is one
   **layer** (:func:`twin_layers`), and a face against its layer's orientation is
   a fold of its layer's shell (a fold on shared rows flips a face and its twin
-  at once, and each joins the other copy's sheet);
+  at once, and each joins the other copy's sheet); in an island made by a planar
+  projection (:mod:`~neuraluv.layout.projection`) the projection says it: a face
+  against the orientation it gives is a fold, its far side, concave parts and
+  silhouette slivers are not;
 * a sheet of two or more faces whose UV points lie thinner than
   :data:`LINE_ASPECT` of their length is a **palette collapse** along a line; a
   sheet of UV-degenerate faces is one when its island has no other faces or it
@@ -56,11 +59,11 @@ Definitions (on the unit-box mesh):
   inside a shell (a problem).
 
 Limits, measured (``data_scripts/purpose_fold_recall.py``): on 114 layouts damaged by
-``neuraluv_paper.damage`` (local folds and vertex noise on eight real assets), 9.2% of the
+``neuraluv_paper.damage`` (local folds and vertex noise on eight real assets), 5.5% of the
 faces the damage reversed are taken for intent: 0–2.5% on six of the eight (Blender's
-mirrored Suzanne among them: 37.5% before the twin layers), 18.2% on tube and 38.1% on Duck,
-where a fold straddles the seam of a stacked mirrored copy that shares no rows with the part it
-copies: its faces join the copy's sheet.
+mirrored Suzanne among them: 37.5% before the twin layers), 18.2% (2 of 11) on tube and 21.9%
+on Duck, a side projection (38.1% before the projection was read): its folds along the
+silhouette, within :data:`~neuraluv.layout.projection.EDGE_ON` of edge-on, are read by the sheets.
 """
 from __future__ import annotations
 
@@ -73,6 +76,7 @@ from scipy.sparse.csgraph import connected_components
 from neuraluv.layout import PURPOSES
 from neuraluv.layout.facts import DEGENERATE_UV, holds_more, within_rings
 from neuraluv.layout.overlap import overlap_pairs, points_in_triangles
+from neuraluv.layout.projection import projection_folds
 from neuraluv.topology import faces_sharing, undirected_edges
 
 __all__ = ["PURPOSES", "STACKED_SHARE", "DEGENERATE_UV", "LayoutIntent", "layout_intent", "twin_layers",
@@ -347,6 +351,8 @@ def layout_intent(facts, *, stacked_share=STACKED_SHARE):
     # rows they share flips a face and its twin at once, and each joins the other copy's sheet; by the surface
     # each copy is one layer, and a face against its layer's orientation is a fold, of its layer's shell
     _layer_folds(facts, cls, idx, shell, fold)
+    # an island made by a planar projection: the projection says which reversed faces are folds
+    projection_folds(facts, cls, shell, s_cls[shells], s_island[shells], fold)
     small_fold = facts.small_folds(fold)  # folds no texture at the resolution shows: noted, left alone
     fold &= ~small_fold
     degenerate[idx] = role[s_lab] == 3
