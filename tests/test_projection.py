@@ -8,6 +8,7 @@ import trimesh
 from neuraluv.layout.facts import layout_facts
 from neuraluv.layout.projection import projection_axes, projection_signs
 from neuraluv.layout.purpose import layout_intent
+from neuraluv.repair.diagnose import diagnose_layout
 from neuraluv.repair.repair import repair_layout
 from neuraluv_paper import damage
 
@@ -29,7 +30,10 @@ def test_a_projection_s_own_reversals_are_intent():
     assert f.n_islands == 1 and on.all() and (sgn == np.sign(f.det)).all()
     assert (f.det < 0).sum() > 0.4 * len(F)    # the back, and the dent's walls inside the front
     it = layout_intent(f)
-    assert not it.fold.any() and not it.degenerate.any()
+    assert not it.fold.any() and not it.degenerate.any() and it.info["projections"] == [0]
+    d = diagnose_layout(V, F, UV, F, purpose="texture")
+    assert d.ok and [x["message"].split(":")[0] for x in d.features if x["kind"] == "mirrored"] == \
+        ["island made by a planar projection"]
     res = repair_layout(V, F, UV, F, "test", purpose="texture", device="cpu")
     assert res.unchanged and res.after.ok
 

@@ -121,9 +121,14 @@ def projection_folds(facts, cls, shell, shell_sign, shell_island, fold):
     shell : (m,) int array, each face's shell (changed)
     shell_sign, shell_island : (k,) int arrays, per shell
     fold : (m,) bool array (changed)
+
+    Returns
+    -------
+    list of int, the islands read as planar projections
     """
+    found = []
     if not len(shell_sign):
-        return
+        return found
     size = np.bincount(shell[shell >= 0], minlength=len(shell_sign))
     for i in np.unique(facts.label[facts.usable & (cls != 0)]):
         faces = facts.island_faces(i)
@@ -131,6 +136,7 @@ def projection_folds(facts, cls, shell, shell_sign, shell_island, fold):
         if got is None:
             continue
         sgn, on, edge = got
+        found.append(int(i))
         ks = np.flatnonzero(shell_island == i)
         largest = {}
         for s in (-1, 1):
@@ -152,6 +158,7 @@ def projection_folds(facts, cls, shell, shell_sign, shell_island, fold):
                 m = f_set[want[f_set] == s]
                 fold[m] = folded
                 shell[m] = _nearest_shell(facts.FUV, m, faces, shell, shell_sign, fold, s, host)
+    return found
 
 
 def _nearest_shell(FUV, m, faces, shell, shell_sign, fold, sign, default):

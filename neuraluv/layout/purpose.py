@@ -352,7 +352,7 @@ def layout_intent(facts, *, stacked_share=STACKED_SHARE):
     # each copy is one layer, and a face against its layer's orientation is a fold, of its layer's shell
     _layer_folds(facts, cls, idx, shell, fold)
     # an island made by a planar projection: the projection says which reversed faces are folds
-    projection_folds(facts, cls, shell, s_cls[shells], s_island[shells], fold)
+    projected = projection_folds(facts, cls, shell, s_cls[shells], s_island[shells], fold)
     small_fold = facts.small_folds(fold)  # folds no texture at the resolution shows: noted, left alone
     fold &= ~small_fold
     degenerate[idx] = role[s_lab] == 3
@@ -360,7 +360,8 @@ def layout_intent(facts, *, stacked_share=STACKED_SHARE):
     shell_sign = s_cls[shells]
     mirrored_shell[idx] = (role[s_lab] == 1) & (s_cls[s_lab] == -1) & ~(fold | small_fold)[idx]
     it = LayoutIntent(sheet, cls, shell, shell_sign.astype(np.int64), s_island[shells], fold, degenerate,
-                      palette, mirrored_shell, info={"sheets": int(n_sheets)}, small_fold=small_fold)
+                      palette, mirrored_shell, info={"sheets": int(n_sheets), "projections": projected},
+                      small_fold=small_fold)
     facts._cache[key] = it
     return it
 

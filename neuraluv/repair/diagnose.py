@@ -371,8 +371,13 @@ def _diagnose_texture(f, V, F, resolution, padding):
                                      + ("s" if len(cl) != 1 else "") + f" (largest {len(cl[0]):,} faces)",
                                      "untangle each cluster locally in its shell, growing rings until it is valid; every "
                                      "other UV stays bit-identical", b, *args, island=i, clusters=[len(c) for c in cl]))
-        if mir.any():
-            whole = bool(mir.sum() == (~f.degenerate3d[fi]).sum())
+        whole = bool(mir.sum() == (~f.degenerate3d[fi]).sum())
+        if mir.any() and not whole and i in it.info.get("projections", ()):
+            features.append(_problem("mirrored", f"island made by a planar projection: {int(mir.sum()):,} of "
+                                     f"{len(fi):,} faces reversed in UV (its far side and concave parts, folded over "
+                                     "onto the near side's texels)",
+                                     "kept (each face lies where the projection puts it)", fi[mir], *args, island=i))
+        elif mir.any():
             features.append(_problem("mirrored", ("island mirrored as a whole" if whole else "mirrored shell stacked in "
                                      "the island") + f": {int(mir.sum()):,} of {len(fi):,} faces reversed in UV",
                                      "kept (a mirrored copy or a reversed winding reads the texture mirrored, on purpose)",
