@@ -111,8 +111,10 @@ def projection_signs(facts, faces):
 def projection_folds(facts, cls, shell, shell_sign, shell_island, fold):
     """In each island made by a planar projection, the faces against its orientation are folds and the faces
     along it are not, nor the edge-on faces that sit on it (rounding reversed them; changed in place): each
-    goes to the largest shell of the island with the orientation the projection gives it (where the island
-    has none, the sheets' reading stays).
+    face whose reading changes goes to the shell of the orientation the projection gives it that the faces
+    around it lie in (:func:`_nearest_shell`; else the island's largest; where the island has no shell of
+    that orientation, the sheets' reading stays). Faces moved off it within :data:`EDGE_ON` of edge-on keep
+    the sheets' reading.
 
     Parameters
     ----------
@@ -181,8 +183,8 @@ def _nearest_shell(FUV, m, faces, shell, shell_sign, fold, sign, default):
 
     touch = (incidence(m) @ incidence(ok).T).tocoo()   # fold face x unfolded neighbour, by shared rows
     if touch.nnz:
-        votes = sp.csr_matrix((touch.data, (touch.row, shell[ok][touch.col])),
-                              shape=(len(m), len(shell_sign))).toarray()
+        hosts, col = np.unique(shell[ok][touch.col], return_inverse=True)   # the island's shells that vote
+        votes = sp.csr_matrix((touch.data, (touch.row, col.reshape(-1))), shape=(len(m), len(hosts))).toarray()
         has = votes.max(1) > 0
-        out[has] = votes[has].argmax(1)
+        out[has] = hosts[votes[has].argmax(1)]
     return out
