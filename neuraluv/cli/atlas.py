@@ -266,12 +266,13 @@ def cmd_repair(args):
             write_gltf(data.doc, tmp, keep_json=True, base=out.parent)
             same = out.suffix.lower() == inp.suffix.lower() and tmp.read_bytes() == inp.read_bytes()
             written = {"format": out.suffix.lower(), "copied": same}
-            if not same:
-                written["note"] = ("the same glTF document, converted to .glb (buffers and images inside)"
-                                   if out.suffix.lower() == ".glb" else
-                                   "the same glTF document; its URIs point from the output's folder at the input's "
-                                   ".bin and image files" if inp.suffix.lower() == ".gltf" else
-                                   "the same glTF document as .gltf, its buffer in a .bin beside it")
+            if not same and out.suffix.lower() == ".glb":
+                written["note"] = "the same glTF document, converted to .glb (buffers and images inside)"
+            elif not same and inp.suffix.lower() == ".gltf":
+                written["note"] = ("the same glTF document; its URIs point from the output's folder at the input's "
+                                   ".bin and image files")
+            elif not same:
+                written["note"] = "the same glTF document as .gltf, its buffer in a .bin beside it"
         else:
             write_atlas(tmp, res.V, res.F, res.UV, res.FUV)
             written = {"format": out.suffix.lower()}

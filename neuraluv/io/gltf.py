@@ -51,7 +51,11 @@ class GltfDoc:
 
     def folders(self):
         """The folders a relative URI of this document resolves in, in order: the file's, then ``base``."""
-        return [self.path.parent] + ([Path(self.base)] if self.base is not None else [])
+        return _folders(self.path, self.base)
+
+
+def _folders(path, base):
+    return [Path(path).parent] + ([Path(base)] if base is not None else [])
 
 
 def load_gltf(path, base=None):
@@ -61,7 +65,7 @@ def load_gltf(path, base=None):
     written into a staging folder refers to the unchanged files beside its final place.
     """
     path = Path(path)
-    folders = GltfDoc(path, {}, [], False, base=base).folders()
+    folders = _folders(path, base)
     raw = path.read_bytes()
     if not raw.strip():
         raise NeuralUVError(f"{path.name} is empty")

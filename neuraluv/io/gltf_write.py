@@ -38,6 +38,7 @@ from neuraluv.io.files import atomic_write
 from neuraluv.io.gltf import (CHUNK_BIN, CHUNK_JSON, COMPONENT_DTYPE, GLB_MAGIC, GltfDoc, external_file, image_bytes,
                               load_gltf, read_accessor)
 from neuraluv.io.gltf_extensions import transform_map
+from neuraluv.io.gltf_tangents import retangent
 
 __all__ = ["write_gltf_uvs", "write_gltf", "write_glb", "replace_images", "new_accessor"]
 
@@ -261,8 +262,6 @@ def _tangents(doc, b, prim, layout, verts, info, shared):
     """The ``TANGENT`` rows of the moved vertices recomputed (:func:`~neuraluv.io.gltf_tangents.retangent`),
     once per tangent accessor; counted in ``info["tangents"]`` (``info["tangents_kept"]``: primitives whose
     quantized tangents could not be rewritten)."""
-    from neuraluv.io.gltf_tangents import retangent
-
     ti = prim["attributes"].get("TANGENT")
     if ti is None or ("tangent", ti) in shared:
         return
@@ -509,7 +508,7 @@ def _write_json_gltf(doc, dst, keep_json, base, update):
                 own = external_file(uri, doc.folders())
             except FileNotFoundError:
                 pass
-            if own is not None and own.read_bytes() == data:
+            if own is not None and own.stat().st_size == len(data) and own.read_bytes() == data:
                 b["uri"] = _relocated(uri, doc, base)
                 continue
         if update and own is not None and own.parent.resolve() == dst.parent.resolve():
