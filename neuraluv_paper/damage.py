@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from neuraluv.metrics import face_dets
 
 __all__ = ["row_rings", "boundary_rows", "local_fold", "vertex_noise", "spike", "flip_patch", "mirror_island",
-           "overlap_islands", "push_out", "nan_patch", "DAMAGE"]
+           "overlap_islands", "push_out", "nan_patch", "damage_left", "DAMAGE"]
 
 
 def _adjacency(FUV, n_rows):
@@ -200,3 +200,44 @@ def nan_patch(V, F, UV, FUV, *, rings=2, seed=0, rows=None):
 
 #: Names of the generated cases, in the benchmark's order.
 DAMAGE = ("local fold", "vertex noise", "mirrored island", "overlapping islands", "island outside [0,1]²", "NaN UVs")
+
+
+def _orientation(UV, FUV):
+    """Each face's UV orientation (+1, -1; 0 without area) and whether its corners have finite UVs."""
+    FUV = np.asarray(FUV, np.int64)
+    T = np.where((FUV >= 0)[..., None], np.asarray(UV, float)[np.maximum(FUV, 0)], np.nan)
+    d = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    fin = np.isfinite(d)
+    return np.where(fin, np.sign(d), 0).astype(np.int64), fin
+
+
+def damage_left(made, damaged, out, judged=None):
+    """Of the faces a damage reversed or left without finite UVs, those a repair's output still has so.
+
+    The damage's own verdict on a repair, by each face's UV orientation against the layout as made (a fold
+    mended in its shell's orientation gets its faces' orientation back), independent of how the repairing
+    tool reads its output.
+
+    Parameters
+    ----------
+    made, damaged, out : tuple (UV (p,2) float array, FUV (m,3) int array), one face order
+    judged : (m,) bool array, optional
+        The faces to judge (default all); leave out faces without 3D area, whose orientation means nothing
+
+    Returns
+    -------
+    (left, hit) : (m,) bool arrays, the faces still damaged and the faces the damage hit
+
+    Examples
+    --------
+    >>> UV = np.array([[0., 0], [1, 0], [0, 1], [1, 1]]); FUV = np.array([[0, 1, 2], [1, 3, 2]])
+    >>> bad = UV.copy(); bad[3] = [-0.5, -0.5]                  # the second face turned over
+    >>> left, hit = damage_left((UV, FUV), (bad, FUV), (bad, FUV))
+    >>> hit.tolist(), left.tolist(), damage_left((UV, FUV), (bad, FUV), (UV, FUV))[0].tolist()
+    ([False, True], [False, True], [False, False])
+    """
+    (s0, f0), (s1, f1), (s2, f2) = (_orientation(*x) for x in (made, damaged, out))
+    judged = np.ones(len(s0), bool) if judged is None else np.asarray(judged, bool)
+    lost = f0 & ~f1 & judged
+    turned = f1 & (s0 != 0) & (s1 == -s0) & judged
+    return (lost & ~f2) | (turned & (s2 != s0)), lost | turned

@@ -26,6 +26,14 @@ def grid(nx=6, ny=2):
     return V, np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
 
 
+def rolled(V, width):
+    """A flat grid (``z = 0``) rolled along ``x`` onto a quarter of a cylinder of the grid's ``width``: the same
+    lengths, no longer flat, so that no planar projection makes its map (a fold on a projection's map is put
+    back onto it, which tests of the local repair must not take for theirs)."""
+    r = 2 * width / np.pi
+    return np.c_[r * np.sin(V[:, 0] / r), V[:, 1], r * (1 - np.cos(V[:, 0] / r))]
+
+
 @pytest.fixture
 def tri():
     V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])

@@ -71,3 +71,61 @@ def test_a_mirror_modifier_s_copies_on_shared_rows_are_no_projection():
     U = P[:, :2] * 0.1 + 0.5
     both = np.r_[P, P * [-1, 1, 1]]
     assert projection_axes(P, U) is not None and projection_axes(both, np.r_[U, U]) is None
+
+
+def test_a_fold_along_a_projection_s_silhouette_is_found_and_put_back_where_the_projection_puts_it():
+    # rows near the silhouette (the near and far sides meet there on shared rows) pulled off the projection:
+    # before, faces within EDGE_ON of edge-on moved off it were read by the sheets, which took many of them for
+    # intent, and no local untangle could keep both sides' orientations; now the projection judges them, and
+    # the repair moves the fold's rows back onto it (no solve)
+    V, F, UV = _projected_blob()
+    f0 = layout_facts(V, F, UV, F)
+    rows = np.flatnonzero(np.abs(V[:, 2]) < 0.25)
+    cases = 0
+    for seed in range(6):
+        bad, _ = damage.local_fold(V, F, UV, F, rings=1, seed=seed, rows=rows, strength=2.0)
+        f = layout_facts(V, F, bad, F)
+        rev = (f.det * f0.det < 0) & ~f.degenerate3d
+        if not rev.any():
+            continue
+        cases += 1
+        it = layout_intent(f)
+        assert (it.fold | it.degenerate)[rev].all()
+        res = repair_layout(V, F, bad, F, "test", purpose="texture", device="cpu")
+        assert res.after.ok and res.after.validation["valid"]
+        assert [a["step"] for a in res.islands[0]["actions"]][0] == "back onto its planar projection"
+        moved = ~(bad == UV).all(1)
+        assert not (res.changed_rows & ~moved).any()                  # only the damaged rows moved ...
+        assert np.abs(res.UV - UV).max() < 1e-9                       # ... back onto the projection
+    assert cases >= 3
+
+
+def test_a_projection_island_s_fold_whose_rows_go_back_is_mended_without_touching_a_second_island():
+    # two projected blobs side by side (two islands): a fold on one is put back; the other island's rows are
+    # bit-identical
+    V, F, UV = _projected_blob()
+    V2, F2, UV2 = np.r_[V, V + [3.0, 0, 0]], np.r_[F, F + len(V)], np.r_[UV * 0.5, UV * 0.5 + [0.5, 0]]
+    rows = np.flatnonzero((V[:, 2] < -0.2) & (V[:, 2] > -0.7))
+    bad, _ = damage.local_fold(V2, F2, UV2, F2, rings=2, seed=0, rows=rows, strength=2.0)
+    res = repair_layout(V2, F2, bad, F2, "test", purpose="texture", device="cpu")
+    assert res.after.ok and res.after.validation["valid"]
+    assert not res.changed_rows[len(V):].any() and np.abs(res.UV - UV2).max() < 1e-9
+
+
+def test_a_projection_stored_on_a_12_bit_grid_is_read_by_its_projection_and_mended_on_the_grid():
+    # gltfpack and gltf-transform store UVs as 12-bit integers: rounding turns over and collapses the projection's
+    # thinnest faces, which the grid, not damage, did (before: dozens of folds on the Khronos Duck so stored)
+    V, F, UV = _projected_blob()
+    Q = np.rint(UV * 4095) / 4095
+    f = layout_facts(V, F, Q, F)
+    turned = (np.sign(f.det) != np.sign(layout_facts(V, F, UV, F).det)) & ~f.degenerate3d
+    assert turned.sum() + (f.det == 0).sum() > 0             # the grid turned or collapsed some faces
+    it = layout_intent(f)
+    assert not it.fold.any() and not it.degenerate.any() and it.info["projections"] == [0]
+    rows = np.flatnonzero((V[:, 2] < -0.2) & (V[:, 2] > -0.7))
+    bad, _ = damage.local_fold(V, F, Q, F, rings=2, seed=0, rows=rows, strength=2.0)
+    res = repair_layout(V, F, bad, F, "test", purpose="texture", device="cpu")
+    assert res.after.ok and res.islands[0]["actions"][0]["step"] == "back onto its planar projection"
+    moved = res.changed_rows
+    assert np.abs(res.UV[moved] * 4095 - np.rint(res.UV[moved] * 4095)).max() < 1e-2   # on the grid
+    assert np.abs(res.UV - Q).max() * 4095 < 1.01         # where it was, up to a step (a fit to rounded data)

@@ -488,13 +488,16 @@ def test_a_glb_with_nan_uvs_is_repaired_into_a_file_the_validator_passes(tmp_pat
     assert v is None or v["errors"] == 0, v
 
 
-def test_the_khronos_duck_quantized_to_16_bits_is_repaired_locally(tmp_path, capsys):
-    # a real asset with 16-bit UVs (KHR_mesh_quantization): its folds are repaired locally, on the accessor's grid
+@pytest.mark.parametrize("damaged", [False, True])
+def test_the_khronos_duck_quantized_to_16_bits_is_repaired_locally(tmp_path, capsys, damaged):
+    # a real asset with 16-bit UVs (KHR_mesh_quantization): as made, the silhouette slivers its rounding collapsed
+    # are the projection's own (byte-identical); a fold added to it is repaired locally, on the accessor's grid
     from neuraluv import datasets
     from neuraluv.cli import main
     from neuraluv.io import read_gltf_layout
     from neuraluv.io.gltf import load_gltf
     from neuraluv.io.gltf_write import new_accessor, write_glb
+    from neuraluv_paper.bench.authored import largest_island_rows
 
     try:
         src = datasets.authored_path("Duck.glb")
@@ -502,9 +505,13 @@ def test_the_khronos_duck_quantized_to_16_bits_is_repaired_locally(tmp_path, cap
         pytest.skip(str(exc))
     doc = load_gltf(src)
     lay = read_gltf_layout(src)
+    UV = lay.UV
+    if damaged:
+        rows = largest_island_rows(lay.V, lay.F, UV, lay.FUV)
+        UV = damage.local_fold(lay.V, lay.F, UV, lay.FUV, rings=2, seed=1, rows=rows)[0]
     for b in lay.blocks:
         prim = doc.json["meshes"][b["mesh"]]["primitives"][b["primitive"]]
-        g = lay.UV[b["rows"][0]:b["rows"][0] + b["rows"][1]]
+        g = UV[b["rows"][0]:b["rows"][0] + b["rows"][1]]
         doc.json["accessors"].append({"componentType": 5123, "normalized": True, "type": "VEC2", "count": len(g)})
         q = np.rint(np.c_[g[:, 0], 1 - g[:, 1]] * 65535).astype(np.uint16)
         prim["attributes"]["TEXCOORD_0"] = new_accessor(doc, q, like=len(doc.json["accessors"]) - 1)
@@ -517,6 +524,7 @@ def test_the_khronos_duck_quantized_to_16_bits_is_repaired_locally(tmp_path, cap
                  str(tmp_path / "r.json")]) == 0, capsys.readouterr()
     r = json.loads((tmp_path / "r.json").read_text())
     assert r["readback"]["valid"] and r["faces_bit_identical"] >= 0.9, r["summary"]
+    assert r["unchanged"] != damaged
 
 
 def test_gltf_reader_refuses_and_skips_with_one_line(tmp_path):
@@ -713,12 +721,13 @@ def test_a_fold_across_a_vertex_split_keeps_the_split_closed():
 
 def array_copies(w, h, k):
     """``V, F, UV, FUV``: ``k`` copies of a ``w`` x ``h`` grid stacked in 3D (an array modifier), every copy on the
-    same ``vt`` rows."""
+    same ``vt`` rows; each copy also shifted sideways, so that no planar projection made them (copies stacked
+    straight along the projection's axis are one: :mod:`neuraluv.layout.projection`)."""
     x, y = np.meshgrid(np.arange(float(w)), np.arange(float(h)))
     P = np.c_[x.ravel(), y.ravel()]
     q = np.array([[i + w * j, i + 1 + w * j, i + 1 + w * (j + 1), i + w * (j + 1)] for j in range(h - 1) for i in range(w - 1)])
     T = np.r_[q[:, [0, 1, 2]], q[:, [0, 2, 3]]]
-    V = np.concatenate([np.c_[P, np.full(len(P), 2.0 * c) + 0.1 * np.sin(P[:, 0])] for c in range(k)])
+    V = np.concatenate([np.c_[P + [0.5 * c, 0.0], np.full(len(P), 2.0 * c) + 0.1 * np.sin(P[:, 0])] for c in range(k)])
     F = np.concatenate([T + c * len(P) for c in range(k)])
     return V, F, P / 16.0 + 0.1, np.tile(T, (k, 1))
 

@@ -14,7 +14,7 @@ from neuraluv.repair.untangle import polish, untangle
 from neuraluv.tutte import tutte
 from neuraluv_paper import damage
 
-from conftest import grid, two_islands
+from conftest import grid, rolled, two_islands
 
 
 def _flat_disk(n_rings=16):
@@ -176,11 +176,14 @@ def test_local_fold_is_repaired_locally():
 
 
 def test_a_fold_on_a_regular_layout_changes_only_the_faces_the_damage_touched():
-    # a grid mapped to itself: the rows the fold moved are the only ones whose every face is distorted, and
-    # freeing exactly those (not the ring around them) leaves every face the damage did not touch bit-identical
+    # a grid mapped to itself (rolled onto a quarter of a cylinder, so that no planar projection made the map: a
+    # fold of one is put back onto it, test_projection.py): the rows the fold moved are the only ones whose every
+    # face is distorted, and freeing exactly those (not the ring around them) leaves every face the damage did
+    # not touch bit-identical
     n = 12
     V, F = grid(n, n)
     UV = V[:, :2] / n
+    V = rolled(V, n)
     for rings in (1, 2):
         bad, _ = damage.local_fold(V, F, UV, F, rings=rings, seed=0)
         res = repair_layout(V, F, bad, F, purpose="texture")

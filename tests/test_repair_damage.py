@@ -14,7 +14,7 @@ from neuraluv.layout.overlap import overlap_pairs
 from neuraluv.repair.local import with_stretched_neighbours
 from neuraluv.repair.repair import repair_layout
 
-from conftest import grid
+from conftest import grid, rolled
 
 
 def test_a_vertex_flung_across_a_small_island_is_a_fold_not_a_mirrored_island():
@@ -217,8 +217,8 @@ def test_two_folds_that_overlap_in_uv_are_repaired_together_in_a_small_region():
     # they swallow it (3 rings, 130 faces here; 32 rings, 3,844 faces on the Suzanne); joined, the two folds'
     # damaged rows alone are freed.
     V, F = grid(24, 12)
-    V = np.c_[V[:, :2], 0.05 * np.sin(V[:, 0])]
     UV = V[:, :2] / 24
+    V = rolled(V, 24)
     a = 8 + 25 * 6
     b = a + 4 + 25
     bad = UV.copy()

@@ -251,8 +251,11 @@ def test_until_stops_the_charts_whose_best_map_passes_the_callers_test():
         return [int(r) == 0 and len(asked) >= 2 for r in rows]
 
     r = optimise(make_batch(preps), cfg, [0, 0], until=(5, done))
-    assert asked[0] == [0, 1] and asked[1] == [0, 1] and all(a == [1] for a in asked[2:])
-    assert r.stop == [Stop.REACHED, Stop.BUDGET] and r.rounds >= 120
+    assert asked[0] == [0, 1] and asked[1] == [0, 1] and len(asked) > 2 and all(a == [1] for a in asked[2:])
+    # chart 1 runs on alone until its budget, or until its line search finds no lower energy (where that happens
+    # depends on the machine's floating-point kernels: an AVX-512 machine stalls it before the budget)
+    assert r.stop[0] == Stop.REACHED and r.stop[1] in (Stop.BUDGET, Stop.STALLED) and r.rounds > 10
+    assert r.stop[1] == Stop.STALLED or r.rounds >= 120
     assert Stop.from_label(Stop.REACHED.label) is Stop.REACHED
     # what the test saw is what the chart returns: its best map at the round it stopped (10)
     assert np.array_equal(r.best_uv[0, : len(preps[0].X)], seen[0]) and len(r.traces[0]["iter"]) <= 10

@@ -5,7 +5,7 @@ import numpy as np
 
 from neuraluv.jacobian import signed_areas_2d
 
-__all__ = ["float32_uvs"]
+__all__ = ["float32_uvs", "uv_lattice"]
 
 
 def float32_uvs(UV, F, rounds=24):
@@ -56,3 +56,93 @@ def float32_uvs(UV, F, rounds=24):
             U[F[f, i]] = (P[i] + n * step).astype(np.float32)
     return U
 
+
+def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
+    """The grid a set of UVs was quantized to (a glTF accessor of 8 to 16-bit integers, read through its
+    ``KHR_texture_transform``): ``(origin, step)`` per axis, or None for values on no grid that coarse.
+
+    Each axis' step starts as the least gap between its distinct values that recurs (three gaps within 7% of
+    it: a few values moved off the grid make gaps of their own, which do not); then a line is fitted to the
+    values on it against their step counts over a span widened fourfold at a time (a grid stored again on a
+    finer one, gltf-transform's 12 bits in a 16-bit accessor, has gaps of 16 and 17 units: a step of 16.0037).
+    The values are on the grid when ``share`` of them lie within ``slack`` steps of ``origin + k · step``.
+    Steps under ``least`` of the values' extent are not looked for (float32 data, or a grid finer than what
+    rounds a projection's faces over), nor steps over ``most`` in UV units (an 8-bit grid over the unit square
+    is 1/255: coarser ones are a layout's own regular spacing, a floor's grid of quads).
+
+    Parameters
+    ----------
+    U : (k,2) float array
+
+    Returns
+    -------
+    ((2,) float array, (2,) float array) or None
+
+    Examples
+    --------
+    >>> g = np.random.default_rng(0).integers(0, 4096, size=(300, 2)) / 4095.0
+    >>> origin, step = uv_lattice(0.25 + 0.5 * g)
+    >>> bool(np.allclose(step, 0.5 / 4095))
+    True
+    >>> twice = np.rint(g * 4095 * 65535 / 4095) / 65535        # 12 bits stored in 16
+    >>> bool(np.allclose(uv_lattice(twice)[1], 1 / 4095, rtol=1e-3))
+    True
+    >>> moved = g.copy(); moved[:10] += 0.3e-4                  # a few values moved off it
+    >>> bool(np.allclose(uv_lattice(moved)[1], 1 / 4095))
+    True
+    >>> uv_lattice(np.random.default_rng(0).random((300, 2))) is None
+    True
+    """
+    U = np.asarray(U, float)
+    U = U[np.isfinite(U).all(1)]
+    if len(U) < 16:
+        return None
+    origin, step = np.zeros(2), np.zeros(2)
+    for a in range(2):
+        v = np.unique(U[:, a])
+        ext = v[-1] - v[0] if len(v) else 0.0
+        if len(v) < 8 or ext <= 0:
+            return None
+        gaps = np.diff(v)
+        first = np.flatnonzero(gaps >= least * ext)
+        first = first[np.argsort(gaps[first], kind="stable")]
+        d = gaps[first]
+        found, tried = None, []
+        for i, g in zip(first[:64], d[:64]):  # gaps that recur, least first; the first whose grid holds
+            if g > most or len(tried) >= 6:
+                break
+            if any(abs(g - t) <= 0.07 * t for t in tried) or np.count_nonzero(np.abs(d - g) <= 0.07 * g) < 3:
+                continue
+            tried.append(g)
+            found = _grid_through(v, v[i], float(g), ext, slack, share)
+            if found is not None:
+                break
+        if found is None:
+            return None
+        origin[a], step[a] = found
+    return origin, step
+
+
+def _grid_through(v, o, h, ext, slack, share):
+    """``(origin, step)`` of the grid through value ``o`` with about step ``h`` that ``share`` of the sorted values
+    ``v`` lie on (within ``slack`` steps), fitted over a span around ``o`` widened fourfold at a time; or None."""
+    span = 64 * h
+    while True:
+        sel = np.abs(v - o) <= span
+        x = (v[sel] - o) / h
+        k = np.rint(x)
+        on = np.abs(x - k) <= slack
+        if on.sum() < 2 or np.ptp(k[on]) < 1:
+            return None
+        h, o = np.polyfit(k[on], v[sel][on], 1)
+        if h <= 0:
+            return None
+        if span >= ext:
+            break
+        span *= 4
+    x = (v - o) / h
+    r = np.abs(x - np.rint(x))
+    if np.mean(r <= slack) < share:
+        return None
+    tight = r <= slack / 2  # the last fit on the values nearest the grid: a value moved just off it weighs nothing
+    return tuple(np.polyfit(np.rint(x[tight]), v[tight], 1)[::-1]) if tight.sum() >= 2 else (o, h)

@@ -45,6 +45,7 @@ from neuraluv.layout.purpose import check_purpose, layout_intent
 from neuraluv.plot import plot_repair
 from neuraluv.repair.bake import collapsed_faces, own_rows_per_surface, repair_islands
 from neuraluv.repair.diagnose import UVDiagnosis, diagnose_layout
+from neuraluv.repair.projected import onto_projections
 from neuraluv.repair.region import island_esds
 from neuraluv.repair.separate import SHRINK_SCALES, input_islands, repack_all, separate
 from neuraluv.repair.shells import repair_shells
@@ -183,7 +184,9 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     purpose : {"bake", "lightmap", "texture"}
         What the layout is for (:mod:`~neuraluv.layout.purpose`). ``bake`` / ``lightmap``: the
         steps above, to a unique, unmirrored layout in ``[0,1]²``. ``texture``: only the folds
-        and UV-degenerate faces inside each shell are untangled, locally, in the shell's own
+        and UV-degenerate faces inside each shell are repaired: in an island made by a planar
+        projection, a fold's rows go back where the projection puts them
+        (:func:`~neuraluv.repair.projected.onto_projections`); the rest are untangled, locally, in the shell's own
         orientation (a mirrored shell stays mirrored; rows a shell shares with another shell
         stacked on it stay where they are), and faces without usable UVs get new charts placed
         in free space; mirrored, stacked, tiled and palette shells are not touched, nothing is
@@ -258,7 +261,9 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
 
     with torch_threads(threads):
         if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
-            UV1, FUV1 = repair_shells(Vn, F, UVw, FUVw, facts, actions, med, cfg, seed=seed, device=device,
+            # a fold of an island made by a planar projection: its rows back where the projection puts them
+            UV0, f0 = onto_projections(Vn, F, UVw, FUVw, facts, actions)
+            UV1, FUV1 = repair_shells(Vn, F, UV0, FUVw, f0, actions, med, cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)
             if not (np.array_equal(UV1, UVw) and np.array_equal(FUV1, FUVw)):  # unchanged: nothing new to read
                 UV1, FUV1 = _second_pass(Vn, F, UV1, FUV1, facts, actions, med, cfg, unweld, seed=seed,

@@ -133,6 +133,16 @@ def _kept_outside(path, out, untouched):
     return float(same[untouched].mean())
 
 
+def _damage_left(made, damaged, out):
+    """:func:`neuraluv_paper.damage.damage_left` of the three files, faces with 3D area: ``(left, hit)`` counts,
+    or None where their faces do not line up."""
+    got = [read_layout(p) for p in (made, damaged, out)]
+    if len({len(g[1]) for g in got}) != 1:
+        return None
+    left, hit = damage.damage_left(*((g[2], g[3]) for g in got), judged=~layout_facts(*got[0][:4]).degenerate3d)
+    return int(left.sum()), int(hit.sum())
+
+
 def _validator_errors(path):
     """The Khronos glTF validator's error count for ``path`` (None where it cannot run: node or the package missing)."""
     v = gltf_validate(path)
@@ -141,13 +151,16 @@ def _validator_errors(path):
     return int(v["errors"]) if "fatal" not in v else max(1, int(v.get("errors", 1)))  # unreadable: an error
 
 
-def _repair_row(asset, case, path, out, tmp, untouched=None):
+def _repair_row(asset, case, path, out, tmp, untouched=None, made=None):
     rep = tmp / "r.json"
     code, so, se, secs = _cli(["repair", path, "-o", out, "--report", rep, "--device", "cpu"])
     row = {"asset": asset, "case": case, "exit": code, "time_s": secs}
     if untouched is not None and Path(out).exists():
         row["kept_outside_damage"] = _kept_outside(path, out, untouched)
         row["damaged_faces"] = int((~untouched).sum())
+        left = _damage_left(made, path, out)
+        if left is not None:
+            row["damage_left"], row["damage_faces"] = left
     if Path(out).suffix.lower() == ".glb" and Path(out).exists():
         row["validator_errors"] = _validator_errors(out)
     if rep.exists():
@@ -223,7 +236,7 @@ def bench(*, output="results/authored", seed=0, damaged=True, meshes=None, argv=
             _write_damaged(work, dmg, data, bad)
             moved = ~((bad == UV) | (np.isnan(bad) & np.isnan(UV))).all(1)  # rows the damage changed
             untouched = ~moved[np.maximum(FUV, 0)].any(1)
-            row = _repair_row(fname, case, dmg, tmp / ("fixed" + work.suffix), tmp, untouched)
+            row = _repair_row(fname, case, dmg, tmp / ("fixed" + work.suffix), tmp, untouched, made=work)
             rows.append(row)
             if show_progress:
                 print(_line(row), flush=True)
@@ -270,7 +283,8 @@ def _markdown(rows, notes):
     made = [r for r in rows if r["case"] == "as made" and "exit" in r]
     intent = [r for r in made if r.get("problems_before") == 0]
     dam = [r for r in rows if r["case"] in ("local fold", "vertex noise", "NaN UVs") and "exit" in r]
-    ok = [r for r in dam if r.get("valid_read_back")]
+    ok = [r for r in dam if r.get("valid_read_back") and r.get("damage_left") == 0]
+    unmeasured = sum("damage_left" not in r for r in dam)
     small = [r for r in dam if r.get("faces", 0) <= 20000]
     lm = [r for r in rows if r["case"].startswith("lightmap")]
     reb = [r for r in rows if "rebake_surface_mean" in r]
@@ -279,7 +293,9 @@ def _markdown(rows, notes):
         f"- Assets as made: **{len(made)}**; internal errors (exit 1): **{sum(r.get('exit') == 1 for r in rows)}**; "
         f"with only intentional features: {len(intent)}, of which written back byte-identical: "
         f"**{sum(bool(r.get('byte_identical')) for r in intent)}/{len(intent)}**.",
-        f"- Added damage: **{len(ok)}/{len(dam)}** fixed (read back valid under the default purpose); faces "
+        f"- Added damage: **{len(ok)}/{len(dam)}** fixed (read back valid under the default purpose, and not one of "
+        f"the faces the damage reversed or left without UVs still so, against the asset as made"
+        + (f"; {unmeasured} not measured: faces that do not line up" if unmeasured else "") + "); faces "
         f"bit-identical to the damaged input: median {_pct(np.median([r['bit_identical'] for r in dam if 'bit_identical' in r]) if dam else None)}, "
         f"lowest {_pct(min([r['bit_identical'] for r in dam if 'bit_identical' in r], default=None))}; of the faces the "
         f"damage left alone: median {_pct(np.median(kept) if kept else None)}, lowest {_pct(min(kept, default=None))}; "
@@ -300,18 +316,20 @@ def _markdown(rows, notes):
         summary.append(f"- Khronos glTF validator on every GLB written: **{sum(r['validator_errors'] == 0 for r in ran)}/"
                        f"{len(ran)}** with no error." if ran else
                        f"- Khronos glTF validator: not run ({validator_missing()}).")
-    head = ["asset", "case", "exit", "purpose", "faces", "problems", "features", "valid", "folded after",
+    head = ["asset", "case", "exit", "purpose", "faces", "problems", "features", "valid", "folded after", "damage left",
             "bit-identical", "kept outside the damage", "byte-identical", "rebake mean (surface / changed)",
             "validator errors", "time (s)"]
     body = []
     for r in rows:
         if "exit" not in r:
             body.append([r["asset"], r["case"], "—", "", "", "", "", "skipped: " + r.get("error", ""), "", "", "", "", "",
-                         "", ""])
+                         "", "", ""])
             continue
         body.append([r["asset"], r["case"], r["exit"], r.get("purpose", ""), r.get("faces", ""), r.get("problems_before", ""),
                      r.get("features", ""), "yes" if r.get("valid_read_back") else ("no" if "valid_read_back" in r else "—"),
-                     r.get("folded_after", ""), _pct(r.get("bit_identical")),
+                     r.get("folded_after", ""),
+                     f"{r['damage_left']} of {r['damage_faces']}" if "damage_left" in r else "",
+                     _pct(r.get("bit_identical")),
                      (f"{_pct(r['kept_outside_damage'])} ({r['damaged_faces']} damaged)"
                       if r.get("kept_outside_damage") is not None else ""),
                      {True: "yes", False: "no"}.get(r.get("byte_identical"), ""),
@@ -320,7 +338,10 @@ def _markdown(rows, notes):
     text = [*summary, "", markdown_table(head, body), "",
             "*exit*: 0 valid, 3 written but read back not valid (the report says which faces), 2 refused with a "
             "one-line reason, 1 internal error. *bit-identical*: faces whose corners keep the input's UV bits and "
-            "indices. *kept outside the damage*: of the faces whose UVs the added damage did not change, the share the "
+            "indices. *damage left*: of the faces the added damage reversed or left without finite UVs (each face's "
+            "UV orientation in the damaged file against the asset's file as made), those the repaired file still has "
+            "so — the damage's own verdict, where *valid* and *folded after* are the tool's reading of its output. "
+            "*kept outside the damage*: of the faces whose UVs the added damage did not change, the share the "
             "repair kept bit for bit (the faces an asset's own problems need are among them). *rebake*: colour difference of the textured surface before and after at 100,000 area-uniform "
             "points (Euclidean over RGB, 8-bit levels), over the whole surface and over the changed faces alone. "
             "Lightmap rows: *folded after* is flips of the new UV set; the padding is the command's default (2 texels at 1024). "
