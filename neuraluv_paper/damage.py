@@ -202,13 +202,22 @@ def nan_patch(V, F, UV, FUV, *, rings=2, seed=0, rows=None):
 DAMAGE = ("local fold", "vertex noise", "mirrored island", "overlapping islands", "island outside [0,1]²", "NaN UVs")
 
 
+#: A face thinner than this share of its longest UV edge has an orientation that float32 rounding can turn
+#: (a file written again in another precision): not judged by :func:`damage_left`.
+THIN = 1e-6
+
+
 def _orientation(UV, FUV):
-    """Each face's UV orientation (+1, -1; 0 without area) and whether its corners have finite UVs."""
+    """Each face's UV orientation (+1, -1; 0 without area), whether its corners have finite UVs, and whether it
+    is thinner than :data:`THIN`."""
     FUV = np.asarray(FUV, np.int64)
     T = np.where((FUV >= 0)[..., None], np.asarray(UV, float)[np.maximum(FUV, 0)], np.nan)
     d = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
     fin = np.isfinite(d)
-    return np.where(fin, np.sign(d), 0).astype(np.int64), fin
+    with np.errstate(invalid="ignore"):
+        longest = np.linalg.norm(T - T[:, [1, 2, 0]], axis=2).max(1)
+        thin = fin & (np.abs(d) <= THIN * longest ** 2)
+    return np.where(fin, np.sign(d), 0).astype(np.int64), fin, thin
 
 
 def damage_left(made, damaged, out, judged=None):
@@ -222,7 +231,9 @@ def damage_left(made, damaged, out, judged=None):
     ----------
     made, damaged, out : tuple (UV (p,2) float array, FUV (m,3) int array), one face order
     judged : (m,) bool array, optional
-        The faces to judge (default all); leave out faces without 3D area, whose orientation means nothing
+        The faces to judge (default all); leave out faces without 3D area, whose orientation means nothing.
+        Faces thinner as made than :data:`THIN` of their longest UV edge are never judged: rounding alone
+        turns them.
 
     Returns
     -------
@@ -236,8 +247,8 @@ def damage_left(made, damaged, out, judged=None):
     >>> hit.tolist(), left.tolist(), damage_left((UV, FUV), (bad, FUV), (UV, FUV))[0].tolist()
     ([False, True], [False, True], [False, False])
     """
-    (s0, f0), (s1, f1), (s2, f2) = (_orientation(*x) for x in (made, damaged, out))
-    judged = np.ones(len(s0), bool) if judged is None else np.asarray(judged, bool)
+    (s0, f0, thin), (s1, f1, _), (s2, f2, _) = (_orientation(*x) for x in (made, damaged, out))
+    judged = (np.ones(len(s0), bool) if judged is None else np.asarray(judged, bool)) & ~thin
     lost = f0 & ~f1 & judged
     turned = f1 & (s0 != 0) & (s1 == -s0) & judged
     return (lost & ~f2) | (turned & (s2 != s0)), lost | turned

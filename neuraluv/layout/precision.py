@@ -61,8 +61,9 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
     """The grid a set of UVs was quantized to (a glTF accessor of 8 to 16-bit integers, read through its
     ``KHR_texture_transform``): ``(origin, step)`` per axis, or None for values on no grid that coarse.
 
-    Each axis' step starts as the least gap between its distinct values that recurs (three gaps within 7% of
-    it: a few values moved off the grid make gaps of their own, which do not); then a line is fitted to the
+    Each axis' step starts as a small gap between its distinct values that recurs (gaps within 7% of it:
+    values moved off the grid make gaps of their own, which recur less): the four that recur most, then the
+    four least, each tried from its own lower value; then a line is fitted to the
     values on it against their step counts over a span widened fourfold at a time (a grid stored again on a
     finer one, gltf-transform's 12 bits in a 16-bit accessor, has gaps of 16 and 17 units: a step of 16.0037).
     The values are on the grid when ``share`` of them lie within ``slack`` steps of ``origin + k · step``.
@@ -107,14 +108,13 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
         first = np.flatnonzero(gaps >= least * ext)
         first = first[np.argsort(gaps[first], kind="stable")]
         d = gaps[first]
-        found, tried = None, []
-        for i, g in zip(first[:64], d[:64]):  # gaps that recur, least first; the first whose grid holds
-            if g > most or len(tried) >= 6:
-                break
-            if any(abs(g - t) <= 0.07 * t for t in tried) or np.count_nonzero(np.abs(d - g) <= 0.07 * g) < 3:
-                continue
-            tried.append(g)
-            found = _grid_through(v, v[i], float(g), ext, slack, share)
+        first, d = first[:256][d[:256] <= most], d[:256][d[:256] <= most]
+        support = np.array([np.count_nonzero(np.abs(d - g) <= 0.07 * g) for g in d])
+        found = None
+        tries = [j for j in np.lexsort((d, -support))[:4] if support[j] >= 3]  # the gaps that recur most, and
+        tries += [j for j in np.flatnonzero(support >= 3)[:4] if j not in tries]  # the least that recur
+        for j in tries:  # each from its own start
+            found = _grid_through(v, v[first[j]], float(d[j]), ext, slack, share)
             if found is not None:
                 break
         if found is None:
@@ -126,7 +126,7 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
 def _grid_through(v, o, h, ext, slack, share):
     """``(origin, step)`` of the grid through value ``o`` with about step ``h`` that ``share`` of the sorted values
     ``v`` lie on (within ``slack`` steps), fitted over a span around ``o`` widened fourfold at a time; or None."""
-    span = 64 * h
+    span = 8 * h
     while True:
         sel = np.abs(v - o) <= span
         x = (v[sel] - o) / h

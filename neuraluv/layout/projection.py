@@ -15,6 +15,11 @@ gives each face the orientation the projection gives it, and :func:`projection_f
 faces against it the folds of a shell of that orientation. :func:`~neuraluv.layout.purpose.layout_intent` uses them: in a
 projection island the projection, not the sheets, says which reversed faces are folds, and
 :mod:`~neuraluv.repair.projected` puts a fold's rows back where the projection puts them.
+
+UVs stored as 8 to 16-bit integers (gltfpack, gltf-transform's ``quantize``) sit on a grid
+(:func:`~neuraluv.layout.precision.uv_lattice`), off the projection by up to half a step: the fit
+allows for it, and a face the projection makes so thin that rounding to the grid can turn it
+over or collapse it is read like an edge-on one (the grid's doing, not damage).
 """
 from __future__ import annotations
 

@@ -95,6 +95,23 @@ def onto_projections(Vn, F, UV, FUV, facts, actions):
     return out, f2
 
 
+def _on_lattice(vals, held, origin, step):
+    """``vals`` (k,2) at their nearest grid points, each coordinate the very value a row of ``held`` has at that
+    grid point where one has it (the nearest such: the file's own dequantized value, where the fitted grid is
+    off it by rounding; a moved row's value near it is farther), else the fitted grid's."""
+    out = np.empty_like(vals)
+    for a in range(2):
+        k = np.rint((vals[:, a] - origin[a]) / step[a])
+        have = np.unique(held[:, a])
+        x = (have - origin[a]) / step[a]
+        hk = np.rint(x)
+        order = np.argsort(-np.abs(x - hk))  # per grid point the value nearest it last, so that it is kept
+        table = {kk: vv for kk, vv, r in zip(hk[order].tolist(), have[order].tolist(), np.abs(x - hk)[order])
+                 if r <= 0.1}
+        out[:, a] = [table.get(float(x), origin[a] + x * step[a]) for x in k]
+    return out
+
+
 def _problems(it, facts):
     """Folded and UV-degenerate faces, and here also the folds too small for a texture to show (which the local
     repair leaves alone): putting rows back onto the projection costs nothing and leaves no fold at all."""
@@ -153,8 +170,7 @@ def _rows_back(Vn, F, UV, FUV, facts, faces, bad):
     for c in np.flatnonzero(np.isin(R, rows)):
         first.setdefault(int(R[c]), c)
     if got.lattice is not None:  # quantized UVs: on the grid they are stored on, as the file will hold them
-        origin, step = got.lattice
-        vals = origin + np.rint((vals - origin) / step) * step
+        vals = _on_lattice(vals, UV[R], *got.lattice)
     where = {int(r): k for k, r in enumerate(rows)}
     for r, c in first.items():
         twin = key.get(P[c].tobytes())
