@@ -369,8 +369,12 @@ def _diagnose_texture(f, V, F, resolution, padding):
             what = " and ".join(x for x in ((f"{nf:,} folded" if nf else ""), (f"{nd:,} UV-degenerate" if nd else "")) if x)
             problems.append(_problem("folded_faces", f"{what} faces inside a shell, in {len(cl)} cluster"
                                      + ("s" if len(cl) != 1 else "") + f" (largest {len(cl[0]):,} faces)",
-                                     "untangle each cluster locally in its shell, growing rings until it is valid; every "
-                                     "other UV stays bit-identical", b, *args, island=i, clusters=[len(c) for c in cl]))
+                                     ("put the rows moved off the island's planar projection back where it puts "
+                                      "them (no solve); what stays folded: untangle it" if i in
+                                      it.info.get("projections", ()) else "untangle each cluster")
+                                     + " locally in its shell, growing rings until it is valid; every other UV stays "
+                                     "bit-identical", b, *args, island=i,
+                                     clusters=[len(c) for c in cl]))
         whole = bool(mir.sum() == (~f.degenerate3d[fi]).sum())
         if mir.any() and not whole and i in it.info.get("projections", ()):
             features.append(_problem("mirrored", f"island made by a planar projection: {int(mir.sum()):,} of "
