@@ -66,7 +66,8 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
     four least, each tried from its own lower value; then a line is fitted to the
     values on it against their step counts over a span widened fourfold at a time (a grid stored again on a
     finer one, gltf-transform's 12 bits in a 16-bit accessor, has gaps of 16 and 17 units: a step of 16.0037).
-    The values are on the grid when ``share`` of them lie within ``slack`` steps of ``origin + k · step``.
+    The values are on the grid when ``share`` of them (counted as often as they occur) lie within ``slack``
+    steps of ``origin + k · step``.
     Steps under ``least`` of the values' extent are not looked for (float32 data, or a grid finer than what
     rounds a projection's faces over), nor steps over ``most`` in UV units (an 8-bit grid over the unit square
     is 1/255: coarser ones are a layout's own regular spacing, a floor's grid of quads).
@@ -100,7 +101,7 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
         return None
     origin, step = np.zeros(2), np.zeros(2)
     for a in range(2):
-        v = np.unique(U[:, a])
+        v, count = np.unique(U[:, a], return_counts=True)
         ext = v[-1] - v[0] if len(v) else 0.0
         if len(v) < 8 or ext <= 0:
             return None
@@ -114,7 +115,7 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
         tries = [j for j in np.lexsort((d, -support))[:4] if support[j] >= 3]  # the gaps that recur most, and
         tries += [j for j in np.flatnonzero(support >= 3)[:4] if j not in tries]  # the least that recur
         for j in tries:  # each from its own start
-            found = _grid_through(v, v[first[j]], float(d[j]), ext, slack, share)
+            found = _grid_through(v, count, v[first[j]], float(d[j]), ext, slack, share)
             if found is not None:
                 break
         if found is None:
@@ -123,9 +124,10 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
     return origin, step
 
 
-def _grid_through(v, o, h, ext, slack, share):
+def _grid_through(v, count, o, h, ext, slack, share):
     """``(origin, step)`` of the grid through value ``o`` with about step ``h`` that ``share`` of the sorted values
-    ``v`` lie on (within ``slack`` steps), fitted over a span around ``o`` widened fourfold at a time; or None."""
+    ``v`` (held ``count`` times each) lie on (within ``slack`` steps), fitted over a span around ``o`` widened
+    fourfold at a time; or None."""
     span = 8 * h
     while True:
         sel = np.abs(v - o) <= span
@@ -142,7 +144,7 @@ def _grid_through(v, o, h, ext, slack, share):
         span *= 4
     x = (v - o) / h
     r = np.abs(x - np.rint(x))
-    if np.mean(r <= slack) < share:
+    if count[r <= slack].sum() < share * count.sum():
         return None
     tight = r <= slack / 2  # the last fit on the values nearest the grid: a value moved just off it weighs nothing
     return tuple(np.polyfit(np.rint(x[tight]), v[tight], 1)[::-1]) if tight.sum() >= 2 else (o, h)
