@@ -29,7 +29,8 @@ import numpy as np
 
 from neuraluv.layout.precision import uv_lattice
 
-__all__ = ["projection_axes", "IslandProjection", "island_projection", "projection_signs", "projection_folds", "PROJECTION_FIT", "PROJECTION_SHARE", "EDGE_ON"]
+__all__ = ["projection_axes", "IslandProjection", "island_projection", "projection_signs", "projection_folds",
+           "PROJECTION_FIT", "PROJECTION_SHARE", "EDGE_ON"]
 
 #: A corner sits on the projection when its UV is within this share of the island's UV extent of it.
 PROJECTION_FIT = 1e-4

@@ -24,9 +24,10 @@ def onto_projections(Vn, F, UV, FUV, facts, actions):
     """Move the rows of each projection island's folds that lie off its projection back onto it.
 
     In each island :func:`~neuraluv.layout.purpose.layout_intent` reads as a planar projection, the rows of
-    its folded or UV-degenerate faces (folds too small for a texture to show too) that lie off the projection, with the rows off it joined to them
-    through the island's edges (the patch a damage moved), go to where the projection puts their corners
-    (a row whose corners the projection puts in different places stays). An island's move is kept only if,
+    its folded or UV-degenerate faces (folds too small for a texture to show too) that lie off the
+    projection, with the rows off it joined to them through the island's edges (the patch a damage moved),
+    go to where the projection puts their corners (a row whose corners the projection puts in different
+    places stays). An island's move is kept only if,
     read again, it has fewer problem faces and no new one; else it is undone.
 
     Parameters
@@ -48,8 +49,9 @@ def onto_projections(Vn, F, UV, FUV, facts, actions):
     -----
     The projection is the affine fit ``U ≈ [P, 1] A`` of
     :func:`~neuraluv.layout.projection.projection_axes`; a row ``r`` moved back takes the mean of
-    ``[p_c, 1] A`` over its corners ``c`` (for quantized UVs, rounded to their grid), or, where another row of the island that sits on the projection
-    has a corner at the same 3D point (a vertex split for its normals), that row's UV bit for bit.
+    ``[p_c, 1] A`` over its corners ``c`` (for quantized UVs, rounded to their grid), or, where another row
+    of the island that sits on the projection has a corner at the same 3D point (a vertex split for its
+    normals), that row's UV bit for bit.
 
     Examples
     --------
@@ -108,7 +110,7 @@ def _on_lattice(vals, held, origin, step):
         order = np.argsort(-np.abs(x - hk))  # per grid point the value nearest it last, so that it is kept
         table = {kk: vv for kk, vv, r in zip(hk[order].tolist(), have[order].tolist(), np.abs(x - hk)[order])
                  if r <= 0.1}
-        out[:, a] = [table.get(float(x), origin[a] + x * step[a]) for x in k]
+        out[:, a] = [table.get(float(kk), origin[a] + kk * step[a]) for kk in k]
     return out
 
 
