@@ -1,13 +1,5 @@
 """Test tiers for the whole tree (tests and doctests): ``slow`` marks what ``make test-fast`` leaves out."""
-import os
-
 import pytest
-
-# MKL's default code paths may round differently for the same call from another thread (seen on an AVX-512
-# machine: a chart solved in a worker thread came out 1e-2 away in E_SD from the same chart solved in the main
-# thread). Its strict mode gives one result per call, so the tests that compare batches run at once with
-# batches run one after the other compare the solver's own work (set before torch loads MKL).
-os.environ.setdefault("MKL_CBWR", "AUTO,STRICT")
 
 #: Doctests that build whole atlases or run benchmarks (seconds each): slow tier.
 SLOW_DOCTESTS = ("neuraluv.atlas.build.build_atlas", "neuraluv.atlas.build.repack", "generated.ours_row")
