@@ -110,7 +110,7 @@ def uv_lattice(U, *, least=5e-5, most=1 / 200, slack=0.1, share=0.9):
         first = first[np.argsort(gaps[first], kind="stable")]
         d = gaps[first]
         first, d = first[:256][d[:256] <= most], d[:256][d[:256] <= most]
-        support = np.array([np.count_nonzero(np.abs(d - g) <= 0.07 * g) for g in d])
+        support = np.searchsorted(d, 1.07 * d, "right") - np.searchsorted(d, 0.93 * d, "left")  # d is sorted
         found = None
         tries = [j for j in np.lexsort((d, -support))[:4] if support[j] >= 3]  # the gaps that recur most, and
         tries += [j for j in np.flatnonzero(support >= 3)[:4] if j not in tries]  # the least that recur

@@ -20,7 +20,7 @@ from neuraluv.layout.purpose import layout_intent
 __all__ = ["onto_projections"]
 
 
-def onto_projections(Vn, F, UV, FUV, facts, actions):
+def onto_projections(Vn, F, UV, FUV, facts, actions, *, written=None):
     """Move the rows of each projection island's folds that lie off its projection back onto it.
 
     In each island :func:`~neuraluv.layout.purpose.layout_intent` reads as a planar projection, the rows of
@@ -39,11 +39,15 @@ def onto_projections(Vn, F, UV, FUV, facts, actions):
         (:func:`~neuraluv.layout.facts.coincident_rows`): the rows moved
     facts : LayoutFacts of the layout as written
     actions : dict, island -> list of action dicts (appended to)
+    written : callable, optional
+        ``written(UV)``: the LayoutFacts of a working layout on ``FUV`` as it will be written (repair_layout's,
+        which joins rows that are one point of the map); default: ``UV`` read on ``FUV`` as it is (then ``FUV``
+        must be ``facts.FUV``)
 
     Returns
     -------
-    UV : (p,2) float array, facts : LayoutFacts of it as written (every row of ``facts.FUV`` at the value of
-    the row ``FUV`` joins it to); ``UV, facts`` themselves when nothing moved
+    UV : (p,2) float array, facts : LayoutFacts of it as written (``written(UV)``); ``UV, facts`` themselves when
+    nothing moved
 
     Notes
     -----
@@ -64,6 +68,9 @@ def onto_projections(Vn, F, UV, FUV, facts, actions):
     >>> bool(np.abs(out - UV).max() < 1e-12), acts[0][0]["step"], acts[0][0]["rows"]
     (True, 'back onto its planar projection', 1)
     """
+    if written is None:
+        def written(U):
+            return layout_facts(Vn, F, U, FUV, normalized=True, min_overlap=facts.min_overlap)
     it = layout_intent(facts)
     bad = _problems(it, facts)
     todo = [i for i in it.info.get("projections", ()) if bad[facts.island_faces(i)].any()]
@@ -78,7 +85,7 @@ def onto_projections(Vn, F, UV, FUV, facts, actions):
             out[rows] = vals
     if not moved:
         return UV, facts
-    f2 = _read(Vn, F, out, FUV, facts)
+    f2 = written(out)
     it2 = layout_intent(f2)
     bad2 = _problems(it2, f2)
     undone = False
@@ -93,7 +100,7 @@ def onto_projections(Vn, F, UV, FUV, facts, actions):
     if undone:
         if np.array_equal(out, UV):
             return UV, facts
-        f2 = _read(Vn, F, out, FUV, facts)
+        f2 = written(out)
     return out, f2
 
 
@@ -119,14 +126,6 @@ def _problems(it, facts):
     repair leaves alone): putting rows back onto the projection costs nothing and leaves no fold at all."""
     small = it.small_fold if it.small_fold is not None else np.zeros(len(facts.F), bool)
     return (it.fold | small | it.degenerate) & facts.usable
-
-
-def _read(Vn, F, UV, FUV, facts):
-    """The facts of ``UV`` as written: each row of ``facts.FUV`` at the value of its row in ``FUV``."""
-    U = np.array(facts.UV, float)
-    has = (facts.FUV >= 0) & np.isfinite(U[np.maximum(facts.FUV, 0)]).all(2)  # rows without UVs stay so
-    U[facts.FUV[has]] = UV[FUV[has]]
-    return layout_facts(Vn, F, U, facts.FUV, normalized=True, min_overlap=facts.min_overlap)
 
 
 def _rows_back(Vn, F, UV, FUV, facts, faces, bad):

@@ -262,7 +262,8 @@ def repair_layout(V, F, UV, FUV=None, preset="fast", *, seed=0, device="auto", t
     with torch_threads(threads):
         if purpose == "texture":  # 1.-3. folds and degenerate faces inside each shell, in its own orientation
             # a fold of an island made by a planar projection: its rows back where the projection puts them
-            UV0, f0 = onto_projections(Vn, F, UVw, FUVw, facts, actions)
+            UV0, f0 = onto_projections(Vn, F, UVw, FUVw, facts, actions,
+                                       written=lambda U: _written(Vn, F, U, FUVw, facts, unweld))
             UV1, FUV1 = repair_shells(Vn, F, UV0, FUVw, f0, actions, med, cfg, seed=seed, device=device,
                                        deadline=deadline, neural=neural)
             if not (np.array_equal(UV1, UVw) and np.array_equal(FUV1, FUVw)):  # unchanged: nothing new to read
@@ -345,10 +346,7 @@ def _second_pass(Vn, F, UVw, FUVw, facts, actions, med, cfg, unweld, **kw):
     actions are marked ``"pass": 2``); folds the first pass could not repair are not tried again.
     """
     before = layout_intent(facts)
-    U, FU = unweld(UVw, FUVw)
-    lost = ~np.isfinite(facts.UV).all(1)
-    U[:len(lost)][lost] = np.nan  # rows without usable UVs, neutralised for the steps: still without (step 4's)
-    f2 = layout_facts(Vn, F, U, FU, normalized=True, min_overlap=facts.min_overlap)
+    f2 = _written(Vn, F, UVw, FUVw, facts, unweld)
     it2 = layout_intent(f2)
     new = (it2.fold | it2.degenerate) & ~(before.fold | before.degenerate) & facts.usable
     if not new.any() or budget_spent(kw["deadline"]):
@@ -359,6 +357,15 @@ def _second_pass(Vn, F, UVw, FUVw, facts, actions, med, cfg, unweld, **kw):
         if acts[j] and i >= 0:
             actions[int(i)].extend({**x, "pass": 2} for x in acts[j])
     return UVw, FUVw
+
+
+def _written(Vn, F, UVw, FUVw, facts, unweld):
+    """The facts of the working layout as it will be written (``unweld``; rows without usable UVs, neutralised for
+    the steps, still without: step 4 gives their faces new charts)."""
+    U, FU = unweld(UVw, FUVw)
+    lost = ~np.isfinite(facts.UV).all(1)
+    U[:len(lost)][lost] = np.nan
+    return layout_facts(Vn, F, U, FU, normalized=True, min_overlap=facts.min_overlap)
 
 
 def _island_base(isl):

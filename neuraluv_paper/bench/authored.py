@@ -122,10 +122,10 @@ def _write_damaged(src, dst, data, UV):
             write_glb(doc, dst, keep_json=same_json)
 
 
-def _kept_outside(path, out, untouched):
-    """Share of the faces the damage left alone (``untouched``) whose corners the repair kept bit for bit (None
-    where the output's faces do not line up with the input's)."""
-    a, b = read_layout(path), read_layout(out)
+def _kept_outside(a, b, untouched):
+    """Share of the faces the damage left alone (``untouched``) whose corners the repair kept bit for bit, between
+    the layouts ``a`` and ``b`` read from the damaged and the repaired file (None where their faces do not line
+    up)."""
     if len(a[1]) != len(b[1]) or not untouched.any():
         return None
     ua, ub = a[2][np.maximum(a[3], 0)], b[2][np.maximum(b[3], 0)]
@@ -134,12 +134,12 @@ def _kept_outside(path, out, untouched):
 
 
 def _damage_left(made, damaged, out):
-    """:func:`neuraluv_paper.damage.damage_left` of the three files, faces with 3D area: ``(left, hit)`` counts,
-    or None where their faces do not line up."""
-    got = [read_layout(p) for p in (made, damaged, out)]
+    """:func:`neuraluv_paper.damage.damage_left` of the three layouts read from the files, faces with 3D area:
+    ``(left, hit)`` counts, or None where their faces do not line up."""
+    got = (made, damaged, out)
     if len({len(g[1]) for g in got}) != 1:
         return None
-    left, hit = damage.damage_left(*((g[2], g[3]) for g in got), judged=~layout_facts(*got[0][:4]).degenerate3d)
+    left, hit = damage.damage_left(*((g[2], g[3]) for g in got), judged=~layout_facts(*made[:4]).degenerate3d)
     return int(left.sum()), int(hit.sum())
 
 
@@ -152,13 +152,17 @@ def _validator_errors(path):
 
 
 def _repair_row(asset, case, path, out, tmp, untouched=None, made=None):
+    """One repair through the command line and what it did; with ``untouched`` (faces the damage left alone), also
+    the faces kept outside the damage and the damage left against ``made`` (the layout as made, as
+    :func:`~neuraluv.io.read_layout` returns it)."""
     rep = tmp / "r.json"
     code, so, se, secs = _cli(["repair", path, "-o", out, "--report", rep, "--device", "cpu"])
     row = {"asset": asset, "case": case, "exit": code, "time_s": secs}
     if untouched is not None and Path(out).exists():
-        row["kept_outside_damage"] = _kept_outside(path, out, untouched)
+        damaged, repaired = read_layout(path), read_layout(out)   # each file read once for both measures
+        row["kept_outside_damage"] = _kept_outside(damaged, repaired, untouched)
         row["damaged_faces"] = int((~untouched).sum())
-        left = _damage_left(made, path, out)
+        left = _damage_left(made, damaged, repaired)
         if left is not None:
             row["damage_left"], row["damage_faces"] = left
     if Path(out).suffix.lower() == ".glb" and Path(out).exists():
@@ -236,7 +240,8 @@ def bench(*, output="results/authored", seed=0, damaged=True, meshes=None, argv=
             _write_damaged(work, dmg, data, bad)
             moved = ~((bad == UV) | (np.isnan(bad) & np.isnan(UV))).all(1)  # rows the damage changed
             untouched = ~moved[np.maximum(FUV, 0)].any(1)
-            row = _repair_row(fname, case, dmg, tmp / ("fixed" + work.suffix), tmp, untouched, made=work)
+            row = _repair_row(fname, case, dmg, tmp / ("fixed" + work.suffix), tmp, untouched,
+                              made=(V, F, UV, FUV, data))
             rows.append(row)
             if show_progress:
                 print(_line(row), flush=True)
